@@ -1,0 +1,647 @@
+#!/usr/bin/env python3
+"""Generate Tessera's bundled glTF 2.0 test scenes.
+
+Python 3.11, standard library only.  Run from anywhere:
+
+    python3 scenes/generate.py            # writes scenes/*.gltf next to this file
+    python3 scenes/generate.py OUT_DIR    # writes them into OUT_DIR
+
+Every file is a self-contained ``.gltf`` (JSON, one buffer embedded as a
+base64 data URI).  Conventions (see README.md):
+
+* units are metres, +Y is up, right-handed (glTF);
+* flat-shaded geometry: every triangle has its own three vertices and its own
+  NORMAL (the geometric normal), so shading normal == geometric normal;
+  spheres share vertices and carry smooth (analytic) normals;
+* all triangles are counter-clockwise seen from the side their normal points
+  to; materials are single-sided unless stated;
+* Lambert = pbrMetallicRoughness(metallic 0, roughness 1) +
+  KHR_materials_specular.specularFactor 0;
+* emitted radiance = emissiveFactor x KHR_materials_emissive_strength, emitted
+  only toward the front (normal) side.
+
+The Cornell-box geometry lives in module-level data (``CORNELL_QUADS_MM``,
+``cornell_box_objects()``, ``CORNELL_MATERIALS``, ``CORNELL_CAMERA``) so that
+``tests/reference/make_cornell_reference.py`` renders exactly the same
+triangles with Mitsuba 3.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+import os
+import struct
+import sys
+
+Vec3 = tuple[float, float, float]
+Tri = tuple[Vec3, Vec3, Vec3]
+
+# --------------------------------------------------------------------------
+# small vector helpers
+# --------------------------------------------------------------------------
+
+
+def vsub(a: Vec3, b: Vec3) -> Vec3:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def vadd(a: Vec3, b: Vec3) -> Vec3:
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def vscale(a: Vec3, s: float) -> Vec3:
+    return (a[0] * s, a[1] * s, a[2] * s)
+
+
+def vdot(a: Vec3, b: Vec3) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def vcross(a: Vec3, b: Vec3) -> Vec3:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def vnorm(a: Vec3) -> Vec3:
+    length = math.sqrt(vdot(a, a))
+    if length == 0.0:
+        raise ValueError("zero-length vector")
+    return (a[0] / length, a[1] / length, a[2] / length)
+
+
+def tri_normal(t: Tri) -> Vec3:
+    """Unit geometric normal of a counter-clockwise triangle (right-hand rule)."""
+    return vnorm(vcross(vsub(t[1], t[0]), vsub(t[2], t[0])))
+
+
+def tri_centroid(t: Tri) -> Vec3:
+    return vscale(vadd(vadd(t[0], t[1]), t[2]), 1.0 / 3.0)
+
+
+def quad_to_tris(q: list[Vec3]) -> list[Tri]:
+    """Split quad v0 v1 v2 v3 along the v0-v2 diagonal: (v0,v1,v2), (v0,v2,v3)."""
+    return [(q[0], q[1], q[2]), (q[0], q[2], q[3])]
+
+
+def orient(t: Tri, want: Vec3) -> Tri:
+    """Return t with its winding flipped if its normal points away from `want`."""
+    if vdot(tri_normal(t), want) < 0.0:
+        return (t[0], t[2], t[1])
+    return t
+
+
+def look_at_quaternion(eye: Vec3, target: Vec3, up: Vec3 = (0.0, 1.0, 0.0)) -> list[float]:
+    """Unit quaternion [x, y, z, w] rotating a glTF camera/light (which looks
+    down its local -Z with local +Y up) so it looks from `eye` at `target`."""
+    f = vnorm(vsub(target, eye))
+    r = vnorm(vcross(f, up))  # local +X (image right)
+    u = vcross(r, f)  # local +Y (image up)
+    b = vscale(f, -1.0)  # local +Z
+    # rotation matrix with columns r, u, b
+    m00, m01, m02 = r[0], u[0], b[0]
+    m10, m11, m12 = r[1], u[1], b[1]
+    m20, m21, m22 = r[2], u[2], b[2]
+    tr = m00 + m11 + m22
+    if tr > 0.0:
+        s = math.sqrt(tr + 1.0) * 2.0
+        q = [(m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s, 0.25 * s]
+    elif m00 > m11 and m00 > m22:
+        s = math.sqrt(1.0 + m00 - m11 - m22) * 2.0
+        q = [0.25 * s, (m01 + m10) / s, (m02 + m20) / s, (m21 - m12) / s]
+    elif m11 > m22:
+        s = math.sqrt(1.0 + m11 - m00 - m22) * 2.0
+        q = [(m01 + m10) / s, 0.25 * s, (m12 + m21) / s, (m02 - m20) / s]
+    else:
+        s = math.sqrt(1.0 + m22 - m00 - m11) * 2.0
+        q = [(m02 + m20) / s, (m12 + m21) / s, 0.25 * s, (m10 - m01) / s]
+    if q[3] < 0.0:
+        q = [-c for c in q]
+    n = math.sqrt(sum(c * c for c in q))
+    q = [c / n for c in q]
+    # clean up -0.0 / 1e-17 noise so simple cases come out exact
+    return [0.0 if abs(c) < 1e-12 else round(c, 15) for c in q]
+
+
+def quat_axis_angle(axis: Vec3, angle: float) -> list[float]:
+    a = vnorm(axis)
+    s = math.sin(angle / 2.0)
+    q = [a[0] * s, a[1] * s, a[2] * s, math.cos(angle / 2.0)]
+    return [0.0 if abs(c) < 1e-12 else round(c, 15) for c in q]
+
+
+def f32(x: float) -> float:
+    """Round a Python float to the nearest float32 (as stored in the buffer)."""
+    return struct.unpack("<f", struct.pack("<f", x))[0]
+
+
+# --------------------------------------------------------------------------
+# Cornell box data (Cornell Program of Computer Graphics, "Cornell Box Data",
+# https://www.graphics.cornell.edu/online/box/data.html), millimetres.
+# Left/right are as seen from the camera: the red wall is at x ~ 550 (image
+# left), the green wall at x = 0 (image right).
+# --------------------------------------------------------------------------
+
+CORNELL_LIGHT_Y_MM = 548.7  # 0.1 mm below the ceiling (548.8)
+
+# (name, material, four corners in mm, orientation rule)
+#   ("toward", p): normal points toward point p  (room interior for walls)
+#   ("away", p):   normal points away from p      (block centre for blocks)
+#   ("dir", v):    normal along v
+_ROOM_CENTRE = (278.0, 274.4, 279.6)
+_SHORT_CENTRE = (186.0, 82.5, 168.5)
+_TALL_CENTRE = (368.5, 165.0, 351.25)
+
+CORNELL_QUADS_MM: list[tuple[str, str, list[Vec3], tuple[str, Vec3]]] = [
+    ("floor", "white",
+     [(552.8, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 559.2), (549.6, 0.0, 559.2)],
+     ("toward", _ROOM_CENTRE)),
+    ("ceiling", "white",
+     [(556.0, 548.8, 0.0), (556.0, 548.8, 559.2), (0.0, 548.8, 559.2), (0.0, 548.8, 0.0)],
+     ("toward", _ROOM_CENTRE)),
+    ("back_wall", "white",
+     [(549.6, 0.0, 559.2), (0.0, 0.0, 559.2), (0.0, 548.8, 559.2), (556.0, 548.8, 559.2)],
+     ("toward", _ROOM_CENTRE)),
+    ("right_wall_green", "green",
+     [(0.0, 0.0, 559.2), (0.0, 0.0, 0.0), (0.0, 548.8, 0.0), (0.0, 548.8, 559.2)],
+     ("toward", _ROOM_CENTRE)),
+    ("left_wall_red", "red",
+     [(552.8, 0.0, 0.0), (549.6, 0.0, 559.2), (556.0, 548.8, 559.2), (556.0, 548.8, 0.0)],
+     ("toward", _ROOM_CENTRE)),
+    # short block: top + 4 sides
+    ("short_block", "white",
+     [(130.0, 165.0, 65.0), (82.0, 165.0, 225.0), (240.0, 165.0, 272.0), (290.0, 165.0, 114.0)],
+     ("away", _SHORT_CENTRE)),
+    ("short_block", "white",
+     [(290.0, 0.0, 114.0), (290.0, 165.0, 114.0), (240.0, 165.0, 272.0), (240.0, 0.0, 272.0)],
+     ("away", _SHORT_CENTRE)),
+    ("short_block", "white",
+     [(130.0, 0.0, 65.0), (130.0, 165.0, 65.0), (290.0, 165.0, 114.0), (290.0, 0.0, 114.0)],
+     ("away", _SHORT_CENTRE)),
+    ("short_block", "white",
+     [(82.0, 0.0, 225.0), (82.0, 165.0, 225.0), (130.0, 165.0, 65.0), (130.0, 0.0, 65.0)],
+     ("away", _SHORT_CENTRE)),
+    ("short_block", "white",
+     [(240.0, 0.0, 272.0), (240.0, 165.0, 272.0), (82.0, 165.0, 225.0), (82.0, 0.0, 225.0)],
+     ("away", _SHORT_CENTRE)),
+    # tall block: top + 4 sides
+    ("tall_block", "white",
+     [(423.0, 330.0, 247.0), (265.0, 330.0, 296.0), (314.0, 330.0, 456.0), (472.0, 330.0, 406.0)],
+     ("away", _TALL_CENTRE)),
+    ("tall_block", "white",
+     [(423.0, 0.0, 247.0), (423.0, 330.0, 247.0), (472.0, 330.0, 406.0), (472.0, 0.0, 406.0)],
+     ("away", _TALL_CENTRE)),
+    ("tall_block", "white",
+     [(472.0, 0.0, 406.0), (472.0, 330.0, 406.0), (314.0, 330.0, 456.0), (314.0, 0.0, 456.0)],
+     ("away", _TALL_CENTRE)),
+    ("tall_block", "white",
+     [(314.0, 0.0, 456.0), (314.0, 330.0, 456.0), (265.0, 330.0, 296.0), (265.0, 0.0, 296.0)],
+     ("away", _TALL_CENTRE)),
+    ("tall_block", "white",
+     [(265.0, 0.0, 296.0), (265.0, 330.0, 296.0), (423.0, 330.0, 247.0), (423.0, 0.0, 247.0)],
+     ("away", _TALL_CENTRE)),
+    # area light, facing down
+    ("light", "light",
+     [(343.0, CORNELL_LIGHT_Y_MM, 227.0), (343.0, CORNELL_LIGHT_Y_MM, 332.0),
+      (213.0, CORNELL_LIGHT_Y_MM, 332.0), (213.0, CORNELL_LIGHT_Y_MM, 227.0)],
+     ("dir", (0.0, -1.0, 0.0))),
+]
+
+# Mitsuba 3 "cbox" RGB albedos; light: radiance (17, 12, 4) W m^-2 sr^-1.
+CORNELL_MATERIALS: dict[str, dict] = {
+    "white": {"albedo": (0.885809, 0.698859, 0.666422), "radiance": None},
+    "red": {"albedo": (0.570068, 0.0430135, 0.0443706), "radiance": None},
+    "green": {"albedo": (0.105421, 0.37798, 0.076425), "radiance": None},
+    "light": {"albedo": (0.78, 0.78, 0.78), "radiance": (17.0, 12.0, 4.0)},
+}
+
+CORNELL_CAMERA = {
+    "name": "Camera",
+    "position": (0.278, 0.273, -0.800),
+    "target": (0.278, 0.273, 0.0),
+    "up": (0.0, 1.0, 0.0),
+    "yfov_deg": 39.3077,  # 2 atan(12.5 mm / 35 mm)
+    "rotation": [0.0, 1.0, 0.0, 0.0],  # 180 deg about +Y: local -Z -> world +Z
+}
+
+
+def cornell_box_objects() -> list[dict]:
+    """The Cornell box in metres: a list of {"name", "material", "triangles"},
+    one entry per object (walls, blocks, light), triangles CCW seen from the
+    side their normal faces (walls: into the room; blocks: outward; light:
+    down).  Order of objects and triangles is the order written to the glTF."""
+    objects: dict[str, dict] = {}
+    for name, material, quad_mm, (rule, ref) in CORNELL_QUADS_MM:
+        quad = [(x / 1000.0, y / 1000.0, z / 1000.0) for (x, y, z) in quad_mm]
+        ref_m = vscale(ref, 1.0 / 1000.0)
+        obj = objects.setdefault(name, {"name": name, "material": material, "triangles": []})
+        assert obj["material"] == material
+        for t in quad_to_tris(quad):
+            c = tri_centroid(t)
+            if rule == "toward":
+                want = vsub(ref_m, c)
+            elif rule == "away":
+                want = vsub(c, ref_m)
+            else:
+                want = ref
+            t = orient(t, want)
+            assert vdot(tri_normal(t), vnorm(want)) > 0.5, (name, t)
+            obj["triangles"].append(t)
+    return list(objects.values())
+
+
+# --------------------------------------------------------------------------
+# Generic geometry
+# --------------------------------------------------------------------------
+
+
+def box_triangles(size: Vec3) -> list[Tri]:
+    """Axis-aligned box centred at the origin, 12 triangles, outward normals."""
+    hx, hy, hz = size[0] / 2.0, size[1] / 2.0, size[2] / 2.0
+    faces = [  # (normal, four corners CCW seen from outside)
+        ((1, 0, 0), [(hx, -hy, hz), (hx, -hy, -hz), (hx, hy, -hz), (hx, hy, hz)]),
+        ((-1, 0, 0), [(-hx, -hy, -hz), (-hx, -hy, hz), (-hx, hy, hz), (-hx, hy, -hz)]),
+        ((0, 1, 0), [(-hx, hy, hz), (hx, hy, hz), (hx, hy, -hz), (-hx, hy, -hz)]),
+        ((0, -1, 0), [(-hx, -hy, -hz), (hx, -hy, -hz), (hx, -hy, hz), (-hx, -hy, hz)]),
+        ((0, 0, 1), [(-hx, -hy, hz), (hx, -hy, hz), (hx, hy, hz), (-hx, hy, hz)]),
+        ((0, 0, -1), [(hx, -hy, -hz), (-hx, -hy, -hz), (-hx, hy, -hz), (hx, hy, -hz)]),
+    ]
+    tris = []
+    for n, q in faces:
+        for t in quad_to_tris([tuple(map(float, p)) for p in q]):
+            assert vdot(tri_normal(t), n) > 0.999
+            tris.append(t)
+    return tris
+
+
+def flip(tris: list[Tri]) -> list[Tri]:
+    return [(t[0], t[2], t[1]) for t in tris]
+
+
+def rect_y(x0: float, x1: float, z0: float, z1: float, y: float, facing_up: bool) -> list[Tri]:
+    """Horizontal rectangle at height y, normal +Y (facing_up) or -Y."""
+    q = [(x0, y, z0), (x0, y, z1), (x1, y, z1), (x1, y, z0)]  # CCW seen from +Y
+    tris = quad_to_tris(q)
+    want = (0.0, 1.0, 0.0) if facing_up else (0.0, -1.0, 0.0)
+    tris = [orient(t, want) for t in tris]
+    for t in tris:
+        assert vdot(tri_normal(t), want) > 0.999
+    return tris
+
+
+def uv_sphere(radius: float, segments: int = 32, rings: int = 16):
+    """Smooth UV sphere centred at the origin: (positions, normals, indices).
+    Seam vertices are duplicated; pole rows use one triangle per segment (no
+    degenerate triangles).  Outward normals, CCW seen from outside."""
+    positions: list[Vec3] = []
+    normals: list[Vec3] = []
+    for i in range(rings + 1):
+        theta = math.pi * i / rings  # 0 at +Y pole
+        st, ct = math.sin(theta), math.cos(theta)
+        if i == 0:
+            st, ct = 0.0, 1.0
+        elif i == rings:
+            st, ct = 0.0, -1.0
+        for j in range(segments + 1):
+            phi = 2.0 * math.pi * (j % segments) / segments
+            n = (st * math.sin(phi), ct, st * math.cos(phi))
+            normals.append(n)
+            positions.append(vscale(n, radius))
+    idx: list[int] = []
+
+    def v(i: int, j: int) -> int:
+        return i * (segments + 1) + j
+
+    for i in range(rings):
+        for j in range(segments):
+            a, b = v(i, j), v(i, j + 1)
+            c, d = v(i + 1, j), v(i + 1, j + 1)
+            # CCW seen from outside (checked below)
+            if i != 0:
+                idx += [a, c, b]
+            if i != rings - 1:
+                idx += [b, c, d]
+    # verify orientation of every triangle against the outward direction
+    for k in range(0, len(idx), 3):
+        t = (positions[idx[k]], positions[idx[k + 1]], positions[idx[k + 2]])
+        assert vdot(tri_normal(t), tri_centroid(t)) > 0.0
+    return positions, normals, idx
+
+
+# --------------------------------------------------------------------------
+# glTF writer
+# --------------------------------------------------------------------------
+
+FLOAT = 5126
+UNSIGNED_INT = 5125
+ARRAY_BUFFER = 34962
+ELEMENT_ARRAY_BUFFER = 34963
+
+
+class Gltf:
+    def __init__(self, generator_note: str):
+        self.buf = bytearray()
+        self.doc: dict = {
+            "asset": {"version": "2.0", "generator": "Tessera scenes/generate.py",
+                      "copyright": "CC0 / public domain test data"},
+            "scene": 0,
+            "scenes": [{"name": generator_note, "nodes": []}],
+            "nodes": [],
+            "meshes": [],
+            "materials": [],
+            "accessors": [],
+            "bufferViews": [],
+            "buffers": [],
+        }
+        self.lights: list[dict] = []
+
+    # ---- raw data ------------------------------------------------------
+    def _view(self, data: bytes, target: int | None, stride: int | None = None) -> int:
+        while len(self.buf) % 4:
+            self.buf.append(0)
+        view = {"buffer": 0, "byteOffset": len(self.buf), "byteLength": len(data)}
+        if stride is not None:
+            view["byteStride"] = stride
+        if target is not None:
+            view["target"] = target
+        self.buf += data
+        self.doc["bufferViews"].append(view)
+        return len(self.doc["bufferViews"]) - 1
+
+    def vec3_accessor(self, vecs: list[Vec3], with_bounds: bool) -> int:
+        flat = [f32(c) for v in vecs for c in v]
+        data = struct.pack("<%df" % len(flat), *flat)
+        view = self._view(data, ARRAY_BUFFER)
+        acc = {"bufferView": view, "byteOffset": 0, "componentType": FLOAT,
+               "count": len(vecs), "type": "VEC3"}
+        if with_bounds:
+            acc["min"] = [min(flat[k::3]) for k in range(3)]
+            acc["max"] = [max(flat[k::3]) for k in range(3)]
+        self.doc["accessors"].append(acc)
+        return len(self.doc["accessors"]) - 1
+
+    def index_accessor(self, idx: list[int]) -> int:
+        data = struct.pack("<%dI" % len(idx), *idx)
+        view = self._view(data, ELEMENT_ARRAY_BUFFER)
+        self.doc["accessors"].append({"bufferView": view, "byteOffset": 0,
+                                      "componentType": UNSIGNED_INT, "count": len(idx),
+                                      "type": "SCALAR", "min": [min(idx)], "max": [max(idx)]})
+        return len(self.doc["accessors"]) - 1
+
+    # ---- materials -----------------------------------------------------
+    def material(self, mat: dict) -> int:
+        self.doc["materials"].append(mat)
+        return len(self.doc["materials"]) - 1
+
+    # ---- meshes --------------------------------------------------------
+    def flat_mesh(self, name: str, tris: list[Tri], material: int) -> int:
+        """Each triangle gets its own 3 vertices and its geometric normal."""
+        pos: list[Vec3] = []
+        nrm: list[Vec3] = []
+        for t in tris:
+            n = tri_normal(t)
+            pos += list(t)
+            nrm += [n, n, n]
+        return self.mesh(name, pos, nrm, list(range(len(pos))), material)
+
+    def mesh(self, name: str, pos: list[Vec3], nrm: list[Vec3], idx: list[int], material: int) -> int:
+        a_pos = self.vec3_accessor(pos, with_bounds=True)
+        a_nrm = self.vec3_accessor(nrm, with_bounds=False)
+        a_idx = self.index_accessor(idx)
+        return self.mesh_from_accessors(name, a_pos, a_nrm, a_idx, material)
+
+    def mesh_from_accessors(self, name: str, a_pos: int, a_nrm: int, a_idx: int, material: int) -> int:
+        self.doc["meshes"].append({"name": name, "primitives": [{
+            "attributes": {"POSITION": a_pos, "NORMAL": a_nrm},
+            "indices": a_idx, "material": material, "mode": 4}]})
+        return len(self.doc["meshes"]) - 1
+
+    # ---- nodes ---------------------------------------------------------
+    def node(self, name: str, translation: Vec3 | None = None, rotation: list[float] | None = None,
+             **extra) -> int:
+        n: dict = {"name": name}
+        if translation is not None and any(translation):
+            n["translation"] = [float(c) for c in translation]
+        if rotation is not None and rotation != [0.0, 0.0, 0.0, 1.0]:
+            n["rotation"] = [float(c) for c in rotation]
+        n.update(extra)
+        self.doc["nodes"].append(n)
+        idx = len(self.doc["nodes"]) - 1
+        self.doc["scenes"][0]["nodes"].append(idx)
+        return idx
+
+    def camera(self, name: str, yfov: float, eye: Vec3, target: Vec3 | None = None,
+               rotation: list[float] | None = None, znear: float = 0.01) -> int:
+        cams = self.doc.setdefault("cameras", [])
+        cams.append({"name": name, "type": "perspective",
+                     "perspective": {"yfov": yfov, "znear": znear}})
+        if rotation is None:
+            rotation = look_at_quaternion(eye, target) if target is not None else [0.0, 0.0, 0.0, 1.0]
+        return self.node(name, translation=eye, rotation=rotation, camera=len(cams) - 1)
+
+    def light(self, node_name: str, light: dict, eye: Vec3, target: Vec3 | None = None) -> int:
+        self.lights.append(light)
+        rot = look_at_quaternion(eye, target) if target is not None else None
+        return self.node(node_name, translation=eye, rotation=rot,
+                         extensions={"KHR_lights_punctual": {"light": len(self.lights) - 1}})
+
+    # ---- output --------------------------------------------------------
+    def finish(self) -> dict:
+        while len(self.buf) % 4:
+            self.buf.append(0)
+        doc = self.doc
+        doc["buffers"] = [{"byteLength": len(self.buf),
+                           "uri": "data:application/octet-stream;base64,"
+                                  + base64.b64encode(bytes(self.buf)).decode("ascii")}]
+        if self.lights:
+            doc.setdefault("extensions", {})["KHR_lights_punctual"] = {"lights": self.lights}
+        used: set[str] = set()
+
+        def walk(o):
+            if isinstance(o, dict):
+                for k, v in o.items():
+                    if k == "extensions" and isinstance(v, dict):
+                        used.update(v.keys())
+                    walk(v)
+            elif isinstance(o, list):
+                for v in o:
+                    walk(v)
+
+        walk(doc)
+        if used:
+            doc["extensionsUsed"] = sorted(used)
+        for key in ("materials", "meshes", "accessors", "bufferViews"):
+            if not doc[key]:
+                del doc[key]
+        return doc
+
+
+def lambert(name: str, rgb: Vec3, emissive: Vec3 | None = None, strength: float | None = None) -> dict:
+    m = {
+        "name": name,
+        "pbrMetallicRoughness": {"baseColorFactor": [float(c) for c in rgb] + [1.0],
+                                 "metallicFactor": 0.0, "roughnessFactor": 1.0},
+        "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}},
+    }
+    add_emission(m, emissive, strength)
+    return m
+
+
+def add_emission(m: dict, emissive: Vec3 | None, strength: float | None) -> None:
+    if emissive is None:
+        return
+    assert all(0.0 <= c <= 1.0 for c in emissive)
+    m["emissiveFactor"] = [float(c) for c in emissive]
+    if strength is not None and strength != 1.0:
+        m.setdefault("extensions", {})["KHR_materials_emissive_strength"] = {
+            "emissiveStrength": float(strength)}
+
+
+def radiance_to_emissive(radiance: Vec3) -> tuple[Vec3, float]:
+    """Split a radiance into (emissiveFactor with max channel 1, strength)."""
+    s = max(radiance)
+    return (tuple(c / s for c in radiance), s)
+
+
+def write(doc: dict, path: str) -> None:
+    with open(path, "w", newline="\n") as fh:
+        json.dump(doc, fh, indent=1)
+        fh.write("\n")
+
+
+# --------------------------------------------------------------------------
+# Scenes
+# --------------------------------------------------------------------------
+
+
+def scene_cornell_box() -> dict:
+    g = Gltf("Cornell box")
+    mats = {}
+    for name, m in CORNELL_MATERIALS.items():
+        if m["radiance"] is None:
+            mats[name] = g.material(lambert(name, m["albedo"]))
+        else:
+            e, s = radiance_to_emissive(m["radiance"])
+            mats[name] = g.material(lambert(name, m["albedo"], e, s))
+    for obj in cornell_box_objects():
+        mesh = g.flat_mesh(obj["name"], obj["triangles"], mats[obj["material"]])
+        g.node(obj["name"], mesh=mesh)
+    c = CORNELL_CAMERA
+    assert look_at_quaternion(c["position"], c["target"], c["up"]) == c["rotation"]
+    g.camera(c["name"], math.radians(c["yfov_deg"]), c["position"], rotation=c["rotation"])
+    return g.finish()
+
+
+def scene_furnace() -> dict:
+    g = Gltf("White furnace")
+    m = g.material(lambert("furnace_grey", (0.8, 0.8, 0.8), emissive=(0.1, 0.1, 0.1)))
+    tris = flip(box_triangles((2.0, 2.0, 2.0)))  # inward-facing
+    for t in tris:
+        assert vdot(tri_normal(t), tri_centroid(t)) < 0.0
+    g.node("furnace_box", mesh=g.flat_mesh("furnace_box", tris, m))
+    g.camera("Camera", 1.0, (0.0, 0.0, 0.0))
+    return g.finish()
+
+
+def _sphere_accessors(g: Gltf, radius: float) -> tuple[int, int, int]:
+    pos, nrm, idx = uv_sphere(radius, 32, 16)
+    return (g.vec3_accessor(pos, with_bounds=True), g.vec3_accessor(nrm, with_bounds=False),
+            g.index_accessor(idx))
+
+
+def scene_glossy() -> dict:
+    g = Gltf("GGX metal spheres")
+    floor_m = g.material(lambert("floor_grey", (0.5, 0.5, 0.5)))
+    e, s = radiance_to_emissive((10.0, 10.0, 10.0))
+    light_m = g.material(lambert("light", (0.78, 0.78, 0.78), e, s))
+    g.node("floor", mesh=g.flat_mesh("floor", rect_y(-3.0, 3.0, -3.0, 3.0, 0.0, True), floor_m))
+    g.node("light", mesh=g.flat_mesh("light", rect_y(-1.0, 1.0, -0.05, 0.45, 1.8, False), light_m))
+    sphere = _sphere_accessors(g, 0.25)
+    for k, r in enumerate((0.05, 0.2, 0.5, 1.0)):
+        name = "gold_roughness_%g" % r
+        m = g.material({"name": name, "pbrMetallicRoughness": {
+            "baseColorFactor": [1.0, 0.766, 0.336, 1.0], "metallicFactor": 1.0, "roughnessFactor": r}})
+        mesh = g.mesh_from_accessors(name, *sphere, m)
+        g.node(name, translation=(-0.825 + 0.55 * k, 0.25, 0.0), mesh=mesh)
+    g.camera("Camera", 0.75, (0.0, 1.2, 3.0), (0.0, 0.25, 0.0))
+    return g.finish()
+
+
+def phong_fallback_roughness(n: float) -> float:
+    """Beckmann-equivalent alpha = sqrt(2/(n+2)); glTF roughness = sqrt(alpha)."""
+    return math.sqrt(math.sqrt(2.0 / (n + 2.0)))
+
+
+def scene_phong() -> dict:
+    g = Gltf("Phong spheres")
+    floor_m = g.material(lambert("floor_grey", (0.5, 0.5, 0.5)))
+    e, s = radiance_to_emissive((10.0, 10.0, 10.0))
+    light_m = g.material(lambert("light", (0.78, 0.78, 0.78), e, s))
+    g.node("floor", mesh=g.flat_mesh("floor", rect_y(-3.0, 3.0, -3.0, 3.0, 0.0, True), floor_m))
+    g.node("light", mesh=g.flat_mesh("light", rect_y(-0.8, 0.8, -0.05, 0.45, 1.8, False), light_m))
+    sphere = _sphere_accessors(g, 0.25)
+    kd = [0.5, 0.45, 0.4]
+    ks = [0.5, 0.5, 0.5]
+    for k, n in enumerate((10, 100, 1000)):
+        assert all(a + b <= 1.0 for a, b in zip(kd, ks))
+        name = "phong_n%d" % n
+        m = g.material({
+            "name": name,
+            "pbrMetallicRoughness": {"baseColorFactor": kd + [1.0], "metallicFactor": 0.0,
+                                     "roughnessFactor": round(phong_fallback_roughness(n), 4)},
+            "extensions": {"TESSERA_materials_phong": {"kd": kd, "ks": ks, "n": float(n)}},
+        })
+        mesh = g.mesh_from_accessors(name, *sphere, m)
+        g.node(name, translation=(-0.6 + 0.6 * k, 0.25, 0.0), mesh=mesh)
+    g.camera("Camera", 0.6, (0.0, 1.0, 2.8), (0.0, 0.25, 0.0))
+    return g.finish()
+
+
+def scene_punctual() -> dict:
+    g = Gltf("Punctual lights")
+    floor_m = g.material(lambert("floor_grey", (0.7, 0.7, 0.7)))
+    box_m = g.material(lambert("box_red", (0.7, 0.3, 0.2)))
+    sph_m = g.material(lambert("sphere_blue", (0.2, 0.3, 0.7)))
+    g.node("floor", mesh=g.flat_mesh("floor", rect_y(-3.0, 3.0, -3.0, 3.0, 0.0, True), floor_m))
+    g.node("box", translation=(-0.6, 0.25, 0.0),
+           rotation=quat_axis_angle((0.0, 1.0, 0.0), math.radians(30.0)),
+           mesh=g.flat_mesh("box", box_triangles((0.5, 0.5, 0.5)), box_m))
+    pos, nrm, idx = uv_sphere(0.3, 32, 16)
+    g.node("sphere", translation=(0.6, 0.3, 0.1), mesh=g.mesh("sphere", pos, nrm, idx, sph_m))
+    g.light("point_light", {"name": "point_light", "type": "point",
+                            "color": [1.0, 0.85, 0.7], "intensity": 4.0}, (-1.2, 1.4, 0.8))
+    g.light("spot_light", {"name": "spot_light", "type": "spot", "color": [1.0, 1.0, 1.0],
+                           "intensity": 15.0,
+                           "spot": {"innerConeAngle": 0.25, "outerConeAngle": 0.4}},
+            (1.2, 2.0, 0.8), (0.6, 0.3, 0.1))
+    g.light("sun", {"name": "sun", "type": "directional", "color": [0.7, 0.8, 1.0],
+                    "intensity": 0.5}, (0.0, 3.0, 0.0), (0.4, 2.0, -0.3))
+    g.camera("Camera", 0.8, (0.0, 1.5, 3.0), (0.0, 0.3, 0.0))
+    return g.finish()
+
+
+SCENES = {
+    "cornell-box.gltf": scene_cornell_box,
+    "furnace.gltf": scene_furnace,
+    "glossy.gltf": scene_glossy,
+    "phong.gltf": scene_phong,
+    "punctual.gltf": scene_punctual,
+}
+
+
+def main(argv: list[str]) -> int:
+    out_dir = argv[1] if len(argv) > 1 else os.path.dirname(os.path.abspath(__file__))
+    os.makedirs(out_dir, exist_ok=True)
+    for fname, fn in SCENES.items():
+        doc = fn()
+        path = os.path.join(out_dir, fname)
+        write(doc, path)
+        ntri = sum(doc["accessors"][p["indices"]]["count"] // 3
+                   for n in doc["nodes"] if "mesh" in n
+                   for p in doc["meshes"][n["mesh"]]["primitives"])
+        print("%-18s %6d triangles  %7d bytes" % (fname, ntri, os.path.getsize(path)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

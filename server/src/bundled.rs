@@ -1,0 +1,31 @@
+//! Scenes shipped with Tessera (`scenes/`), compiled into the binary so that
+//! `tessera render cornell-box` works from any directory.
+use std::path::Path;
+
+pub const SCENES: &[(&str, &[u8])] = &[
+    ("cornell-box", include_bytes!("../../scenes/cornell-box.gltf")),
+    ("furnace", include_bytes!("../../scenes/furnace.gltf")),
+    ("glossy", include_bytes!("../../scenes/glossy.gltf")),
+    ("phong", include_bytes!("../../scenes/phong.gltf")),
+    ("punctual", include_bytes!("../../scenes/punctual.gltf")),
+];
+
+pub fn get(name: &str) -> Option<&'static [u8]> {
+    SCENES.iter().find(|(n, _)| *n == name).map(|(_, b)| *b)
+}
+
+pub fn names() -> Vec<&'static str> {
+    SCENES.iter().map(|(n, _)| *n).collect()
+}
+
+/// Loads a scene given as a bundled name or a path to a `.gltf`/`.glb` file.
+pub fn load(scene: &str) -> anyhow::Result<tessera_worker::tracer::Scene> {
+    let path = Path::new(scene);
+    if path.exists() {
+        return Ok(tessera_worker::scene::load_path(path)?);
+    }
+    match get(scene) {
+        Some(bytes) => Ok(tessera_worker::scene::load_bytes(bytes, None)?),
+        None => anyhow::bail!("{scene:?} is neither a file nor a bundled scene ({})", names().join(", ")),
+    }
+}

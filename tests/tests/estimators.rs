@@ -1,0 +1,62 @@
+//! All four estimators render the same Cornell box; MIS does it with the least variance.
+use crate::harness::{channel, region_mean};
+use tessera_server::bundled;
+use tessera_worker::tracer::integrator::PathSettings;
+use tessera_worker::tracer::sampler::SamplerKind;
+use tessera_worker::tracer::{Estimator, PixelSums, RenderSettings, Roulette, render_tile};
+
+const SIZE: u32 = 32;
+
+fn render(est: Estimator, spp: u32) -> Vec<PixelSums> {
+    let scene = bundled::load("cornell-box").unwrap();
+    let s = RenderSettings {
+        width: SIZE,
+        height: SIZE,
+        seed: 11,
+        // Independent samples make the measured spread a valid error bar.
+        sampler: SamplerKind::Independent,
+        path: PathSettings { estimator: est, roulette: Roulette::default(), max_depth: 1024 },
+        background: glam::Vec3::ZERO,
+        camera: None,
+    };
+    render_tile(&scene, &s, s.full_frame(), 0..spp).unwrap().pixels
+}
+
+/// Mean over pixels of the per-sample variance (variance of the mean × count), channel-averaged.
+fn per_sample_variance(pixels: &[PixelSums]) -> f64 {
+    let mut acc = 0.0;
+    for p in pixels {
+        acc += p.variance_of_mean().iter().sum::<f64>() * p.count as f64 / 3.0;
+    }
+    acc / pixels.len() as f64
+}
+
+#[test]
+fn all_estimators_agree_on_the_cornell_box_and_mis_has_the_lowest_variance() {
+    let spp = 512;
+    let images: Vec<(Estimator, Vec<PixelSums>)> = Estimator::ALL.into_iter().map(|e| (e, render(e, spp))).collect();
+    let reference = &images.iter().find(|(e, _)| *e == Estimator::Mis).unwrap().1;
+    let regions = 4;
+    let r = (SIZE / regions) as usize;
+    for (est, img) in &images {
+        for c in 0..3 {
+            let (a, b) = (channel(img, c), channel(reference, c));
+            for ry in 0..regions as usize {
+                for rx in 0..regions as usize {
+                    let (ma, sa) = region_mean(&a, SIZE as usize, rx * r, ry * r, r, r);
+                    let (mb, sb) = region_mean(&b, SIZE as usize, rx * r, ry * r, r, r);
+                    let sigma = (sa * sa + sb * sb).sqrt();
+                    assert!(
+                        (ma - mb).abs() <= 4.0 * sigma + 1e-9,
+                        "{est:?} channel {c} region ({rx},{ry}): {ma} vs mis {mb} (σ {sigma})"
+                    );
+                }
+            }
+        }
+    }
+    let var = |e: Estimator| per_sample_variance(&images.iter().find(|(x, _)| *x == e).unwrap().1);
+    let mis = var(Estimator::Mis);
+    for e in [Estimator::Naive, Estimator::Bsdf, Estimator::Light] {
+        assert!(mis < var(e), "mis variance {mis} should be below {e:?}'s {}", var(e));
+    }
+}

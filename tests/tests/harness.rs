@@ -1,0 +1,52 @@
+//! Shared helpers: the `tessera` binary, bundled scenes, pooled statistics.
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+use tessera_worker::tracer::PixelSums;
+
+pub fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").to_path_buf()
+}
+
+/// Path to a freshly built `tessera` binary of the same profile as this test.
+pub fn tessera_bin() -> &'static Path {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| {
+        let release = !cfg!(debug_assertions);
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        cmd.args(["build", "-q", "-p", "tessera-server", "--bin", "tessera"]).current_dir(repo_root());
+        if release {
+            cmd.arg("--release");
+        }
+        let status = cmd.status().expect("run cargo build");
+        assert!(status.success(), "building tessera failed");
+        let target = std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| repo_root().join("target"));
+        target.join(if release { "release" } else { "debug" }).join("tessera")
+    })
+}
+
+pub fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("tessera-test-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// Mean of the pixel means over a rectangle, and the standard error of that mean, per channel.
+pub fn region_mean(pixels: &[(f64, f64)], width: usize, x0: usize, y0: usize, w: usize, h: usize) -> (f64, f64) {
+    let (mut m, mut v) = (0.0, 0.0);
+    for y in y0..y0 + h {
+        for x in x0..x0 + w {
+            let (pm, pv) = pixels[y * width + x];
+            m += pm;
+            v += pv;
+        }
+    }
+    let n = (w * h) as f64;
+    (m / n, (v / (n * n)).sqrt())
+}
+
+/// Per-pixel (mean, variance of the mean) of channel `c`.
+pub fn channel(pixels: &[PixelSums], c: usize) -> Vec<(f64, f64)> {
+    pixels.iter().map(|p| (p.mean()[c], p.variance_of_mean()[c])).collect()
+}

@@ -1,0 +1,5 @@
+//! End-to-end tests: one binary, one module per capability.
+mod estimators;
+mod harness;
+mod mitsuba;
+mod render_cli;

@@ -1,0 +1,48 @@
+//! `tessera render`, as a user runs it: a real process writing real files.
+use crate::harness::{temp_dir, tessera_bin};
+use std::process::Command;
+use tessera_server::output::{MetaValue, decode_exr};
+
+#[test]
+fn render_writes_an_exr_with_every_layer_and_a_preview() {
+    let dir = temp_dir("render");
+    let (exr, png) = (dir.join("cb.exr"), dir.join("cb.png"));
+    let out = Command::new(tessera_bin())
+        .args(["render", "cornell-box", "--spp", "8", "--width", "48", "--height", "32", "--seed", "3", "-o"])
+        .arg(&exr)
+        .arg("--preview")
+        .arg(&png)
+        .output()
+        .expect("run tessera");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("samples/s"), "prints throughput: {stdout}");
+    let (img, meta) = decode_exr(&std::fs::read(&exr).unwrap()).unwrap();
+    assert_eq!((img.width, img.height), (48, 32));
+    assert!(img.samples.iter().all(|&s| s == 8.0));
+    assert!(img.rgb.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    assert!(img.rgb.iter().map(|p| p[0]).sum::<f32>() > 0.0, "the box is lit");
+    assert!(img.variance.iter().flatten().any(|&v| v > 0.0));
+    let get = |k: &str| meta.iter().find(|(n, _)| n == k).map(|(_, v)| v.clone());
+    assert!(matches!(get("tessera.spp"), Some(MetaValue::Int(8))));
+    assert!(matches!(get("tessera.estimator"), Some(MetaValue::Text(ref s)) if s == "mis"));
+    assert!(get("tessera.render_time_s").is_some());
+    let preview = image::open(&png).expect("preview decodes");
+    assert_eq!((preview.width(), preview.height()), (48, 32));
+}
+
+#[test]
+fn render_refuses_bad_arguments_with_a_clear_message() {
+    let cases: [(&[&str], &str); 4] = [
+        (&["render", "no-such-scene"], "neither a file nor a bundled scene"),
+        (&["render", "cornell-box", "--estimator", "magic"], "unknown estimator"),
+        (&["render", "cornell-box", "--spp", "0"], "--spp must be at least 1"),
+        (&["render", "cornell-box", "--camera", "Nope"], "no camera named"),
+    ];
+    for (args, expect) in cases {
+        let out = Command::new(tessera_bin()).args(args).output().expect("run tessera");
+        assert!(!out.status.success(), "{args:?} should fail");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(expect), "{args:?}: {err}");
+    }
+}

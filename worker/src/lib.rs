@@ -1,0 +1,15 @@
+//! Tessera's worker: the path tracer and (later) the process that leases units from a coordinator.
+//!
+//! # Layout
+//! - [`tracer`]: the pure renderer. Geometry, BVH, sampling, BSDFs, lights, integrators and the
+//!   per-unit partial sums. It does no I/O, spawns no async tasks and knows nothing of the wire
+//!   format, so it is deterministic and testable on its own.
+//! - [`scene`]: glTF 2.0 → [`tracer::Scene`]. The only place that parses files; it validates
+//!   everything it reads and reports errors that name the offending mesh, primitive or material.
+//!
+//! # Invariants
+//! - Every random number is a pure function of (seed, pixel, sample index, dimension), see
+//!   [`tracer::sampler`]. A unit rendered twice, on any machine or thread count, gives the same bits.
+//! - A unit returns partial sums (f64), never averages, so merging units is exact addition.
+pub mod scene;
+pub mod tracer;

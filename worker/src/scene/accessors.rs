@@ -1,0 +1,59 @@
+//! Bounds checks on accessors before the `gltf` reader touches them: the reader trusts the file
+//! and panics (or reads garbage) on out-of-range views, which a render farm must refuse instead.
+use super::SceneError;
+
+/// Checks every accessor a triangle primitive reads.
+pub fn check_primitive(prim: &gltf::Primitive, buffers: &[Vec<u8>], at: &dyn Fn(&str) -> String) -> Result<(), SceneError> {
+    for (semantic, accessor) in prim.attributes() {
+        check(&accessor, buffers).map_err(|e| SceneError::new(at(&format!("{} accessor {e}", semantic.to_string()))))?;
+    }
+    if let Some(ix) = prim.indices() {
+        check(&ix, buffers).map_err(|e| SceneError::new(at(&format!("indices accessor {e}"))))?;
+        if ix.dimensions() != gltf::accessor::Dimensions::Scalar
+            || !matches!(ix.data_type(), gltf::accessor::DataType::U8 | gltf::accessor::DataType::U16 | gltf::accessor::DataType::U32)
+        {
+            return Err(SceneError::new(at("indices must be unsigned scalar integers")));
+        }
+    }
+    Ok(())
+}
+
+fn check(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
+    let count = a.count();
+    if count == 0 {
+        return Err("count 0".into());
+    }
+    let size = a.size();
+    if let Some(view) = a.view() {
+        let stride = view.stride().unwrap_or(size);
+        if stride < size {
+            return Err(format!("byteStride {stride} is smaller than its element size {size}"));
+        }
+        let span = (count - 1).checked_mul(stride).and_then(|s| s.checked_add(size)).and_then(|s| s.checked_add(a.offset()));
+        if span.is_none_or(|s| s > view.length()) {
+            return Err(format!("with count {count} reads past the end of buffer view {}", view.index()));
+        }
+        check_view(&view, buffers)?;
+    }
+    if let Some(sparse) = a.sparse() {
+        let n = sparse.count();
+        let (iv, vv) = (sparse.indices().view(), sparse.values().view());
+        check_view(&iv, buffers)?;
+        check_view(&vv, buffers)?;
+        let index_size = sparse.indices().index_type().size();
+        if n.checked_mul(index_size).is_none_or(|s| s + sparse.indices().offset() > iv.length())
+            || n.checked_mul(size).is_none_or(|s| s + sparse.values().offset() > vv.length())
+        {
+            return Err(format!("sparse data with count {n} reads past its buffer views"));
+        }
+    }
+    Ok(())
+}
+
+fn check_view(view: &gltf::buffer::View, buffers: &[Vec<u8>]) -> Result<(), String> {
+    let len = buffers.get(view.buffer().index()).map_or(0, Vec::len);
+    match view.offset().checked_add(view.length()) {
+        Some(end) if end <= len => Ok(()),
+        _ => Err(format!("buffer view {} lies outside buffer {} ({len} bytes)", view.index(), view.buffer().index())),
+    }
+}

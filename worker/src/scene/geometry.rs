@@ -1,0 +1,158 @@
+//! glTF nodes → world-space triangles, cameras and punctual lights.
+use super::SceneError;
+use crate::tracer::camera::Camera;
+use crate::tracer::light::Light;
+use crate::tracer::scene::Mesh;
+use glam::{Mat3, Mat4, Vec2, Vec3};
+use gltf::mesh::Mode;
+
+pub struct Parts {
+    pub mesh: Mesh,
+    pub cameras: Vec<Camera>,
+    pub lights: Vec<Light>,
+}
+
+/// Walks the default scene (or the first one) and flattens it into world space.
+pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize) -> Result<Parts, SceneError> {
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| SceneError::new("the file has no scene"))?;
+    let mut parts = Parts { mesh: Mesh::default(), cameras: Vec::new(), lights: Vec::new() };
+    let mut stack: Vec<(gltf::Node, Mat4, usize)> = scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    while let Some((node, parent, depth)) = stack.pop() {
+        if depth > 256 {
+            return Err(SceneError::new(format!("node {}: hierarchy deeper than 256 levels", node.index())));
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if !world.is_finite() {
+            return Err(SceneError::new(format!("node {}: transform is not finite", node.index())));
+        }
+        if let Some(mesh) = node.mesh() {
+            add_mesh(&mut parts.mesh, &mesh, world, buffers, material_count)?;
+        }
+        if let Some(cam) = node.camera() {
+            if let gltf::camera::Projection::Perspective(p) = cam.projection() {
+                parts.cameras.push(camera(&node, &cam, &p, world)?);
+            }
+        }
+        if let Some(light) = node.light() {
+            parts.lights.push(punctual(&light, world)?);
+        }
+        stack.extend(node.children().map(|c| (c, world, depth + 1)));
+    }
+    Ok(parts)
+}
+
+fn camera(node: &gltf::Node, cam: &gltf::Camera, p: &gltf::camera::Perspective, world: Mat4) -> Result<Camera, SceneError> {
+    let yfov = p.yfov();
+    if !(yfov > 0.0 && yfov < std::f32::consts::PI) {
+        return Err(SceneError::new(format!("camera {}: yfov {yfov} is not in (0, π)", cam.index())));
+    }
+    let name = cam.name().or(node.name()).map_or_else(|| format!("camera{}", cam.index()), str::to_string);
+    Ok(Camera { name, to_world: world, yfov })
+}
+
+fn punctual(light: &gltf::khr_lights_punctual::Light, world: Mat4) -> Result<Light, SceneError> {
+    use gltf::khr_lights_punctual::Kind;
+    let i = light.index();
+    let colour = Vec3::from(light.color()) * light.intensity();
+    if !colour.is_finite() || colour.min_element() < 0.0 {
+        return Err(SceneError::new(format!("light {i}: colour × intensity must be finite and ≥ 0")));
+    }
+    let position = world.transform_point3(Vec3::ZERO);
+    let axis = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+    if axis == Vec3::ZERO {
+        return Err(SceneError::new(format!("light {i}: node transform collapses its direction")));
+    }
+    Ok(match light.kind() {
+        Kind::Point => Light::Point { position, intensity: colour },
+        Kind::Directional => Light::Directional { dir: axis, irradiance: colour },
+        Kind::Spot { inner_cone_angle, outer_cone_angle } => {
+            if !(0.0 <= inner_cone_angle && inner_cone_angle < outer_cone_angle && outer_cone_angle <= std::f32::consts::FRAC_PI_2) {
+                return Err(SceneError::new(format!(
+                    "light {i}: spot cone angles must satisfy 0 ≤ inner < outer ≤ π/2 (got {inner_cone_angle}, {outer_cone_angle})"
+                )));
+            }
+            Light::Spot { position, axis, intensity: colour, cos_inner: inner_cone_angle.cos(), cos_outer: outer_cone_angle.cos() }
+        }
+    })
+}
+
+fn add_mesh(out: &mut Mesh, mesh: &gltf::Mesh, world: Mat4, buffers: &[Vec<u8>], material_count: usize) -> Result<(), SceneError> {
+    let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
+    // A mirroring transform flips the winding; swap two corners to keep front faces in front.
+    let mirrored = Mat3::from_mat4(world).determinant() < 0.0;
+    for prim in mesh.primitives() {
+        let at = |what: &str| format!("mesh {} primitive {}: {what}", mesh.index(), prim.index());
+        super::accessors::check_primitive(&prim, buffers, &at)?;
+        let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.as_slice()));
+        let positions: Vec<Vec3> = reader
+            .read_positions()
+            .ok_or_else(|| SceneError::new(at("no POSITION attribute")))?
+            .map(Vec3::from)
+            .collect();
+        if positions.is_empty() {
+            return Err(SceneError::new(at("POSITION has no vertices")));
+        }
+        if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(SceneError::new(at(&format!("POSITION {k} is not finite"))));
+        }
+        let normals: Option<Vec<Vec3>> = reader.read_normals().map(|n| n.map(Vec3::from).collect());
+        let uv = |set| reader.read_tex_coords(set).map(|t| t.into_f32().map(Vec2::from).collect::<Vec<_>>());
+        let uvs = [uv(0), uv(1)];
+        let indices: Vec<u32> = match reader.read_indices() {
+            Some(ix) => ix.into_u32().collect(),
+            None => (0..positions.len() as u32).collect(),
+        };
+        if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+            return Err(SceneError::new(at(&format!("index {bad} out of range (POSITION count {})", positions.len()))));
+        }
+        check_len(&at, "NORMAL", normals.as_ref().map(Vec::len), positions.len())?;
+        check_len(&at, "TEXCOORD_0", uvs[0].as_ref().map(Vec::len), positions.len())?;
+        check_len(&at, "TEXCOORD_1", uvs[1].as_ref().map(Vec::len), positions.len())?;
+        let material = match prim.material().index() {
+            Some(m) if m < material_count => m as u32,
+            Some(m) => return Err(SceneError::new(at(&format!("material {m} does not exist")))),
+            None => material_count as u32, // glTF's default material, appended by the loader
+        };
+        let triangles = triangle_list(prim.mode(), &indices).ok_or_else(|| SceneError::new(at("not a triangle mode (points and lines have no area)")))?;
+        for [a, b, c] in triangles {
+            let corners = if mirrored { [a, c, b] } else { [a, b, c] };
+            let p = corners.map(|i| world.transform_point3(positions[i as usize]));
+            let face = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            let n = match &normals {
+                Some(ns) => corners.map(|i| (normal_matrix * ns[i as usize]).normalize_or(face)),
+                None => [face; 3],
+            };
+            let t = uvs.each_ref().map(|set| match set {
+                Some(set) => corners.map(|i| set[i as usize]),
+                None => [Vec2::ZERO; 3],
+            });
+            out.positions.push(p);
+            out.normals.push(n);
+            out.uvs.push(t);
+            out.material.push(material);
+        }
+    }
+    Ok(())
+}
+
+fn check_len(at: &dyn Fn(&str) -> String, name: &str, len: Option<usize>, expected: usize) -> Result<(), SceneError> {
+    match len {
+        Some(n) if n != expected => Err(SceneError::new(at(&format!("{name} count {n} differs from POSITION count {expected}")))),
+        _ => Ok(()),
+    }
+}
+
+/// Triangle corner indices for the three triangle modes; None for points and lines.
+fn triangle_list(mode: Mode, ix: &[u32]) -> Option<Vec<[u32; 3]>> {
+    Some(match mode {
+        Mode::Triangles => ix.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        Mode::TriangleStrip => (0..ix.len().saturating_sub(2))
+            .map(|i| if i % 2 == 0 { [ix[i], ix[i + 1], ix[i + 2]] } else { [ix[i + 1], ix[i], ix[i + 2]] })
+            .collect(),
+        Mode::TriangleFan => (1..ix.len().saturating_sub(1)).map(|i| [ix[0], ix[i], ix[i + 1]]).collect(),
+        _ => return None,
+    })
+}

@@ -1,0 +1,285 @@
+//! Ray–triangle acceleration: an obvhs BVH with a watertight triangle test.
+//!
+//! obvhs supplies the tree and its SIMD traversal; the triangle test is ours (Woop, Benthin and
+//! Wald 2013, as in pbrt-v4) because obvhs's Möller–Trumbore test leaks rays through shared edges.
+//! Two obvhs pitfalls are handled here, not by callers:
+//! - its `Ray::new` clamps tiny direction components, so near-axis rays could miss thin far
+//!   geometry: we write the exact reciprocal (±f32::MAX for zero) into `inv_direction`;
+//! - its wide BVH skips boxes lying entirely within 1e-4 of the origin, an absolute distance. The
+//!   tree is therefore built in a space scaled by a power of two (exact in floating point) that
+//!   makes the scene about 2¹² units across, where 1e-4 is below f32 resolution.
+use crate::tracer::ray::{Ray, gamma};
+use glam::{Vec3, Vec3A};
+use obvhs::{BvhBuildParams, bvh2::Bvh2, cwbvh::CwBvh, ray::RayHit, triangle::Triangle};
+use std::time::Duration;
+
+/// Which obvhs tree to build. The wide BVH is faster; the binary one is kept for cross-checks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BvhKind {
+    Wide,
+    Binary,
+}
+
+enum Tree {
+    Wide(CwBvh),
+    Binary(Bvh2),
+    Empty,
+}
+
+pub struct Accel {
+    tree: Tree,
+    /// Triangle vertices in tree space, in the tree's primitive order.
+    verts: Vec<[Vec3; 3]>,
+    /// Tree primitive slot → caller's triangle index.
+    prim_ids: Vec<u32>,
+    scale: f32,
+}
+
+/// Closest hit: ray parameter and barycentrics (b0 = 1 − b1 − b2) on triangle `prim`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    pub prim: u32,
+    pub b1: f32,
+    pub b2: f32,
+}
+
+const TARGET_EXTENT_LOG2: i32 = 12;
+
+impl Accel {
+    pub fn build(tris: &[[Vec3; 3]], kind: BvhKind) -> Accel {
+        let scale = tree_scale(tris);
+        if tris.is_empty() {
+            return Accel { tree: Tree::Empty, verts: Vec::new(), prim_ids: Vec::new(), scale };
+        }
+        let obvhs_tris: Vec<Triangle> = tris
+            .iter()
+            .map(|t| Triangle {
+                v0: Vec3A::from(t[0] * scale),
+                v1: Vec3A::from(t[1] * scale),
+                v2: Vec3A::from(t[2] * scale),
+            })
+            .collect();
+        let params = BvhBuildParams::medium_build();
+        let mut build_time = Duration::default();
+        let (tree, prim_ids) = match kind {
+            BvhKind::Wide => {
+                let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&obvhs_tris, params, &mut build_time);
+                let ids = bvh.primitive_indices.clone();
+                (Tree::Wide(bvh), ids)
+            }
+            BvhKind::Binary => {
+                let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time);
+                let ids = bvh.primitive_indices.clone();
+                (Tree::Binary(bvh), ids)
+            }
+        };
+        let verts = prim_ids.iter().map(|&i| tris[i as usize].map(|v| v * scale)).collect();
+        Accel { tree, verts, prim_ids, scale }
+    }
+
+    /// Closest hit with 0 < t < t_max.
+    pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        let (obvhs_ray, wt) = self.tree_ray(ray, t_max)?;
+        let mut best: Option<(u32, f32, f32)> = None;
+        let mut closest = |r: &obvhs::ray::Ray, slot: usize| -> f32 {
+            match intersect_triangle(&wt, &self.verts[slot], r.tmax) {
+                // obvhs accepts only t strictly below tmax; a tie (a shared edge) keeps the first.
+                Some((t, b1, b2)) if t < r.tmax => {
+                    best = Some((slot as u32, b1, b2));
+                    t
+                }
+                _ => f32::INFINITY,
+            }
+        };
+        let mut hit = RayHit::none();
+        let found = match &self.tree {
+            Tree::Wide(b) => b.ray_traverse(obvhs_ray, &mut hit, &mut closest),
+            Tree::Binary(b) => b.ray_traverse(obvhs_ray, &mut hit, &mut closest),
+            Tree::Empty => false,
+        };
+        if !found {
+            return None;
+        }
+        // The last accepted candidate is the closest: traversal only accepts t below the current tmax.
+        let (slot, b1, b2) = best?;
+        debug_assert_eq!(slot, hit.primitive_id);
+        Some(Hit { t: hit.t / self.scale, prim: self.prim_ids[slot as usize], b1, b2 })
+    }
+
+    /// Whether anything blocks the ray on 0 < t < t_max.
+    pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        let Some((obvhs_ray, wt)) = self.tree_ray(ray, t_max) else { return false };
+        let any = |r: &obvhs::ray::Ray, slot: usize| -> f32 {
+            intersect_triangle(&wt, &self.verts[slot], r.tmax).map_or(f32::INFINITY, |h| h.0)
+        };
+        match &self.tree {
+            Tree::Wide(b) => !b.ray_traverse_miss(obvhs_ray, any),
+            Tree::Binary(b) => !b.ray_traverse_miss(obvhs_ray, any),
+            Tree::Empty => false,
+        }
+    }
+
+    fn tree_ray(&self, ray: &Ray, t_max: f32) -> Option<(obvhs::ray::Ray, WatertightRay)> {
+        let origin = ray.origin * self.scale;
+        if !(origin.is_finite() && ray.dir.is_finite()) || ray.dir == Vec3::ZERO {
+            return None;
+        }
+        let tmax = t_max * self.scale;
+        let inv = ray.dir.map(exact_reciprocal);
+        let r = obvhs::ray::Ray {
+            origin: origin.into(),
+            direction: ray.dir.into(),
+            inv_direction: inv.into(),
+            tmin: 0.0,
+            tmax,
+        };
+        Some((r, WatertightRay::new(origin, ray.dir)))
+    }
+}
+
+/// 1/x, with ±f32::MAX instead of ±∞ so that a slab test on a zero component gives 0·MAX = 0
+/// (ray inside the slab) rather than NaN.
+fn exact_reciprocal(x: f32) -> f32 {
+    let r = 1.0 / x;
+    if r.is_infinite() { f32::MAX.copysign(r) } else { r }
+}
+
+/// Power of two bringing the scene's extent near 2^TARGET_EXTENT_LOG2, clamped so nothing overflows.
+fn tree_scale(tris: &[[Vec3; 3]]) -> f32 {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for v in tris.iter().flatten() {
+        lo = lo.min(*v);
+        hi = hi.max(*v);
+    }
+    let extent = (hi - lo).max_element();
+    let reach = lo.abs().max(hi.abs()).max_element();
+    if !(extent.is_finite() && extent > 0.0) {
+        return 1.0;
+    }
+    let mut k = TARGET_EXTENT_LOG2 - extent.log2().ceil() as i32;
+    // Keep scaled coordinates below 2^100 so products in the triangle test cannot overflow.
+    k = k.min(100 - reach.log2().ceil() as i32).clamp(-100, 100);
+    2f32.powi(k)
+}
+
+/// Per-ray constants of the watertight test: the axis permutation and shear that map the ray
+/// to +z through the origin.
+struct WatertightRay {
+    origin: Vec3,
+    perm: [usize; 3],
+    shear: Vec3,
+}
+
+impl WatertightRay {
+    fn new(origin: Vec3, dir: Vec3) -> WatertightRay {
+        let kz = dir.abs().max_position();
+        let kx = (kz + 1) % 3;
+        let ky = (kx + 1) % 3;
+        let d = Vec3::new(dir[kx], dir[ky], dir[kz]);
+        WatertightRay { origin, perm: [kx, ky, kz], shear: Vec3::new(-d.x / d.z, -d.y / d.z, 1.0 / d.z) }
+    }
+
+    fn transform(&self, v: Vec3) -> Vec3 {
+        let p = v - self.origin;
+        let p = Vec3::new(p[self.perm[0]], p[self.perm[1]], p[self.perm[2]]);
+        Vec3::new(p.x + self.shear.x * p.z, p.y + self.shear.y * p.z, p.z)
+    }
+}
+
+/// a·b − c·d with one rounding error (Kahan's algorithm via FMA).
+fn difference_of_products(a: f32, b: f32, c: f32, d: f32) -> f32 {
+    let cd = c * d;
+    let err = (-c).mul_add(d, cd);
+    let dop = a.mul_add(b, -cd);
+    dop + err
+}
+
+fn edge_functions(p0: Vec3, p1: Vec3, p2: Vec3) -> (f32, f32, f32) {
+    let mut e = (
+        difference_of_products(p1.x, p2.y, p1.y, p2.x),
+        difference_of_products(p2.x, p0.y, p2.y, p0.x),
+        difference_of_products(p0.x, p1.y, p0.y, p1.x),
+    );
+    if e.0 == 0.0 || e.1 == 0.0 || e.2 == 0.0 {
+        // The ray passes exactly through an edge in f32: decide in f64 so neighbours agree.
+        let f = |a: Vec3, b: Vec3| (a.x as f64 * b.y as f64 - a.y as f64 * b.x as f64) as f32;
+        e = (f(p1, p2), f(p2, p0), f(p0, p1));
+    }
+    e
+}
+
+/// Watertight ray–triangle test (pbrt-v4 `IntersectTriangle`): returns (t, b1, b2) for a hit with
+/// t conservatively > 0 and t < t_max.
+fn intersect_triangle(ray: &WatertightRay, v: &[Vec3; 3], t_max: f32) -> Option<(f32, f32, f32)> {
+    let (mut p0, mut p1, mut p2) = (ray.transform(v[0]), ray.transform(v[1]), ray.transform(v[2]));
+    let (e0, e1, e2) = edge_functions(p0, p1, p2);
+    if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+        return None;
+    }
+    let det = e0 + e1 + e2;
+    if det == 0.0 {
+        return None;
+    }
+    p0.z *= ray.shear.z;
+    p1.z *= ray.shear.z;
+    p2.z *= ray.shear.z;
+    let t_scaled = e0 * p0.z + e1 * p1.z + e2 * p2.z;
+    if det < 0.0 && (t_scaled >= 0.0 || t_scaled < t_max * det) {
+        return None;
+    }
+    if det > 0.0 && (t_scaled <= 0.0 || t_scaled > t_max * det) {
+        return None;
+    }
+    let inv_det = 1.0 / det;
+    let t = t_scaled * inv_det;
+    if t <= t_error_bound(p0, p1, p2, (e0, e1, e2), inv_det) && !positive_in_f64(ray, v) {
+        return None;
+    }
+    Some((t, e1 * inv_det, e2 * inv_det))
+}
+
+/// pbrt-v4's conservative bound on the error of t, so that hits behind the origin are rejected.
+fn t_error_bound(p0: Vec3, p1: Vec3, p2: Vec3, e: (f32, f32, f32), inv_det: f32) -> f32 {
+    let max_zt = Vec3::new(p0.z, p1.z, p2.z).abs().max_element();
+    let max_xt = Vec3::new(p0.x, p1.x, p2.x).abs().max_element();
+    let max_yt = Vec3::new(p0.y, p1.y, p2.y).abs().max_element();
+    let delta_z = gamma(3) * max_zt;
+    let delta_x = gamma(5) * (max_xt + max_zt);
+    let delta_y = gamma(5) * (max_yt + max_zt);
+    let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let max_e = Vec3::new(e.0, e.1, e.2).abs().max_element();
+    3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs()
+}
+
+/// The f32 bound on t is loose for thin triangles far away (it can exceed t itself); before
+/// rejecting such a hit, redo the test in f64, where the same bound is 2²⁹ times tighter.
+fn positive_in_f64(ray: &WatertightRay, v: &[Vec3; 3]) -> bool {
+    let [kx, ky, kz] = ray.perm;
+    let o = ray.origin.as_dvec3();
+    let s = ray.shear.as_dvec3();
+    let p = v.map(|q| {
+        let d = q.as_dvec3() - o;
+        glam::DVec3::new(d[kx] + s.x * d[kz], d[ky] + s.y * d[kz], d[kz] * s.z)
+    });
+    let e = [
+        p[1].x * p[2].y - p[1].y * p[2].x,
+        p[2].x * p[0].y - p[2].y * p[0].x,
+        p[0].x * p[1].y - p[0].y * p[1].x,
+    ];
+    let det = e[0] + e[1] + e[2];
+    let t = (e[0] * p[0].z + e[1] * p[1].z + e[2] * p[2].z) / det;
+    let g = |n: f64| n * f64::EPSILON * 0.5 / (1.0 - n * f64::EPSILON * 0.5);
+    let max = |f: fn(&glam::DVec3) -> f64| p.iter().map(|q| f(q).abs()).fold(0.0, f64::max);
+    let (mx, my, mz) = (max(|q| q.x), max(|q| q.y), max(|q| q.z));
+    let (dx, dy, dz) = (g(5.0) * (mx + mz), g(5.0) * (my + mz), g(3.0) * mz);
+    let de = 2.0 * (g(2.0) * mx * my + dy * mx + dx * my);
+    let me = e.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    // Shearing in f64 adds error of the order of the f32 inputs' own rounding; count it in.
+    let bound = 3.0 * (g(3.0) * me * mz + de * mz + dz * me) / det.abs() + g(8.0) * mz;
+    t > bound
+}
+
+#[cfg(test)]
+#[path = "accel_tests.rs"]
+mod tests;

@@ -1,0 +1,133 @@
+use super::*;
+
+/// A deterministic stream for tests (SplitMix64).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn vec(&mut self) -> Vec3 {
+        Vec3::new(self.next(), self.next(), self.next())
+    }
+}
+
+/// A unit square in z = 0 split into an n×n grid of quads, two triangles each.
+fn grid(n: usize) -> Vec<[Vec3; 3]> {
+    let mut tris = Vec::new();
+    let s = 1.0 / n as f32;
+    for i in 0..n {
+        for j in 0..n {
+            let p = |a: usize, b: usize| Vec3::new(a as f32 * s, b as f32 * s, 0.0);
+            tris.push([p(i, j), p(i + 1, j), p(i + 1, j + 1)]);
+            tris.push([p(i, j), p(i + 1, j + 1), p(i, j + 1)]);
+        }
+    }
+    tris
+}
+
+fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(f32, u32)> {
+    let wt = WatertightRay::new(ray.origin, ray.dir);
+    let mut best: Option<(f32, u32)> = None;
+    for (i, t) in tris.iter().enumerate() {
+        let limit = best.map_or(f32::INFINITY, |b| b.0);
+        if let Some((th, _, _)) = intersect_triangle(&wt, t, limit) {
+            best = Some((th, i as u32));
+        }
+    }
+    best
+}
+
+#[test]
+fn rays_through_shared_edges_and_vertices_never_leak() {
+    let tris = grid(8);
+    for kind in [BvhKind::Wide, BvhKind::Binary] {
+        let accel = Accel::build(&tris, kind);
+        // Aim exactly at grid vertices and edge midpoints, from oblique origins.
+        for i in 0..=16 {
+            for j in 0..=16 {
+                let target = Vec3::new(i as f32 / 16.0, j as f32 / 16.0, 0.0);
+                if target.x >= 1.0 || target.y >= 1.0 || target.x <= 0.0 || target.y <= 0.0 {
+                    continue;
+                }
+                let origin = Vec3::new(0.3, -0.7, 2.0);
+                let ray = Ray::new(origin, target - origin);
+                let hit = accel.intersect(&ray, f32::INFINITY);
+                assert!(hit.is_some(), "{kind:?}: ray to interior point {target} leaked through");
+            }
+        }
+    }
+}
+
+#[test]
+fn both_trees_agree_with_brute_force_on_random_rays() {
+    let mut rng = Rng(7);
+    let tris: Vec<[Vec3; 3]> = (0..500)
+        .map(|_| {
+            let c = rng.vec() * 10.0;
+            [c + rng.vec() - 0.5, c + rng.vec() - 0.5, c + rng.vec() - 0.5]
+        })
+        .collect();
+    let wide = Accel::build(&tris, BvhKind::Wide);
+    let binary = Accel::build(&tris, BvhKind::Binary);
+    let mut hits = 0;
+    for _ in 0..2000 {
+        let ray = Ray::new(rng.vec() * 10.0, rng.vec() * 2.0 - 1.0);
+        let expected = brute_force(&tris, &ray);
+        for accel in [&wide, &binary] {
+            let got = accel.intersect(&ray, f32::INFINITY).map(|h| (h.t, h.prim));
+            assert_eq!(got.map(|g| g.1), expected.map(|e| e.1), "ray {ray:?}");
+            if let (Some(g), Some(e)) = (got, expected) {
+                assert!((g.0 - e.0).abs() <= 1e-5 * e.0, "t {} vs {}", g.0, e.0);
+            }
+            assert_eq!(accel.occluded(&ray, f32::INFINITY), expected.is_some());
+        }
+        hits += expected.is_some() as u32;
+    }
+    assert!(hits > 200, "test rays should hit often enough to mean something ({hits})");
+}
+
+#[test]
+fn barycentrics_reconstruct_the_hit_point() {
+    let tri = [Vec3::new(-1.0, -1.0, 3.0), Vec3::new(2.0, -1.0, 3.0), Vec3::new(0.0, 2.0, 3.0)];
+    let accel = Accel::build(&[tri], BvhKind::Wide);
+    let ray = Ray::new(Vec3::new(0.1, 0.2, 0.0), Vec3::Z);
+    let hit = accel.intersect(&ray, f32::INFINITY).expect("hit");
+    let p = tri[0] * (1.0 - hit.b1 - hit.b2) + tri[1] * hit.b1 + tri[2] * hit.b2;
+    assert!((p - ray.at(hit.t)).length() < 1e-5, "{p} vs {}", ray.at(hit.t));
+    assert!((hit.t - 3.0).abs() < 1e-6);
+    assert!(accel.intersect(&ray, 2.9).is_none(), "t_max must bound the search");
+}
+
+#[test]
+fn axis_parallel_rays_hit_thin_far_geometry() {
+    // A sliver 1e-3 wide, 1e4 away along x; rays with tiny y/z direction components.
+    let tris = vec![[Vec3::new(1e4, -1e-3, -1.0), Vec3::new(1e4, 1e-3, -1.0), Vec3::new(1e4, 0.0, 1.0)]];
+    for kind in [BvhKind::Wide, BvhKind::Binary] {
+        let accel = Accel::build(&tris, kind);
+        for dy in [0.0, 1e-9, -1e-9, 1e-8, -1e-8] {
+            let ray = Ray::new(Vec3::ZERO, Vec3::new(1.0, dy, 0.0));
+            assert_eq!(accel.intersect(&ray, f32::INFINITY).is_some(), brute_force(&tris, &ray).is_some());
+            assert!(accel.intersect(&ray, f32::INFINITY).is_some(), "{kind:?} dy={dy}");
+        }
+    }
+}
+
+#[test]
+fn tiny_scenes_find_hits_closer_than_obvhs_epsilon() {
+    // Scene 1e-3 across: the occluder is 5e-5 above the receiver, below obvhs's fixed 1e-4.
+    let s = 1e-3;
+    let receiver = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(s, 0.0, 0.0), Vec3::new(0.0, s, 0.0)];
+    let occluder = [Vec3::new(0.0, 0.0, 5e-5), Vec3::new(s, 0.0, 5e-5), Vec3::new(0.0, s, 5e-5)];
+    for kind in [BvhKind::Wide, BvhKind::Binary] {
+        let accel = Accel::build(&[receiver, occluder], kind);
+        let ray = Ray::new(Vec3::new(2e-4, 2e-4, 1e-6), Vec3::Z);
+        let hit = accel.intersect(&ray, f32::INFINITY).expect("occluder");
+        assert_eq!(hit.prim, 1);
+        assert!(accel.occluded(&ray, 1.0));
+    }
+}
+

@@ -1,0 +1,296 @@
+//! Path-tracing estimators of the radiance arriving along a camera ray.
+//!
+//! All four are unbiased and converge to the same image; they differ in variance, which is what
+//! the accuracy study measures:
+//!
+//! | `Estimator` | at each hit                                                            |
+//! |-------------|------------------------------------------------------------------------|
+//! | `Naive`     | the seed's first tracer: with probability ½ return 2·Le, else continue in a uniformly random hemisphere direction with weight 2·f·cos/p |
+//! | `Bsdf`      | add Le, continue by BSDF importance sampling                            |
+//! | `Light`     | sample one light (emission is counted only through light samples, and on the camera ray), continue by BSDF sampling |
+//! | `Mis`       | both, combined with the power heuristic (the default)                  |
+//!
+//! Russian roulette is unbiased: a path that survives with probability q is divided by q.
+//! Surfaces are black from behind unless their material is double-sided (rays do not pass
+//! through the back of a single-sided triangle; that would leak light into closed rooms).
+use crate::tracer::bsdf::{Bsdf, BsdfSample};
+use crate::tracer::light::{LightSet, Target};
+use crate::tracer::ray::{ErrPoint, Ray, SHADOW_EPSILON};
+use crate::tracer::sampler::Sampler;
+use crate::tracer::sampling::{Frame, power_heuristic};
+use crate::tracer::scene::{NO_LIGHT, Scene};
+use glam::{Vec2, Vec3};
+use std::str::FromStr;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Estimator {
+    Naive,
+    Bsdf,
+    Light,
+    Mis,
+}
+
+impl Estimator {
+    pub const ALL: [Estimator; 4] = [Estimator::Naive, Estimator::Bsdf, Estimator::Light, Estimator::Mis];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Estimator::Naive => "naive",
+            Estimator::Bsdf => "bsdf",
+            Estimator::Light => "light",
+            Estimator::Mis => "mis",
+        }
+    }
+}
+
+impl FromStr for Estimator {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Estimator, String> {
+        Estimator::ALL
+            .into_iter()
+            .find(|e| e.name() == s)
+            .ok_or_else(|| format!("unknown estimator {s:?} (expected one of naive, bsdf, light, mis)"))
+    }
+}
+
+/// Russian roulette on the path throughput β.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Roulette {
+    Off,
+    /// The seed's form: once max(β) < `threshold`, stop with probability `p`, else β /= 1 − p.
+    Threshold { threshold: f32, p: f32 },
+    /// From bounce `min_depth` on, survive with probability max(β) (capped at 1), so a surviving
+    /// path's throughput never exceeds 1 in any channel.
+    Throughput { min_depth: u32 },
+}
+
+impl Default for Roulette {
+    fn default() -> Roulette {
+        Roulette::Throughput { min_depth: 3 }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathSettings {
+    pub estimator: Estimator,
+    pub roulette: Roulette,
+    /// Most scattering events per path: a safety cap, not a bias knob (default 1024).
+    pub max_depth: u32,
+}
+
+impl Default for PathSettings {
+    fn default() -> PathSettings {
+        PathSettings { estimator: Estimator::Mis, roulette: Roulette::default(), max_depth: 1024 }
+    }
+}
+
+/// One camera sample's radiance and the largest throughput weight along its path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathSample {
+    pub radiance: Vec3,
+    pub max_weight: f32,
+}
+
+pub struct Integrator<'a> {
+    scene: &'a Scene,
+    lights: LightSet<'a>,
+    settings: PathSettings,
+}
+
+/// What the integrator needs to know about a hit.
+struct Surface {
+    p: ErrPoint,
+    /// Geometric normal, facing the incoming ray for double-sided materials.
+    ng: Vec3,
+    frame: Frame,
+    wo: Vec3,
+    bsdf: Option<Bsdf>,
+    le: Vec3,
+    light: u32,
+}
+
+/// The previous bounce, for MIS weights of emission found by a BSDF-sampled ray.
+#[derive(Clone, Copy)]
+struct Bounce {
+    p: Vec3,
+    n: Vec3,
+    bsdf_pdf: f32,
+}
+
+impl<'a> Integrator<'a> {
+    pub fn new(scene: &'a Scene, background: Vec3, settings: PathSettings) -> Integrator<'a> {
+        let lights = LightSet::new(&scene.lights, background, scene.bounds_radius);
+        Integrator { scene, lights, settings }
+    }
+
+    pub fn li(&self, mut ray: Ray, sampler: &mut Sampler) -> PathSample {
+        let est = self.settings.estimator;
+        let (mut l, mut beta, mut max_weight) = (Vec3::ZERO, Vec3::ONE, 1.0f32);
+        let mut prev: Option<Bounce> = None;
+        for depth in 0.. {
+            let Some(s) = self.surface(&ray) else {
+                l += beta * self.escaped(est, prev, ray.dir);
+                break;
+            };
+            if est == Estimator::Naive {
+                // The seed's first tracer: emit or reflect, each with probability ½.
+                let (u_choice, u_dir) = (sampler.get_1d(), sampler.get_2d());
+                if u_choice < 0.5 {
+                    l += beta * 2.0 * s.le;
+                    break;
+                }
+                let Some(bsdf) = s.bsdf.filter(|_| depth < self.settings.max_depth) else { break };
+                let Some(bs) = bsdf.sample_uniform(s.wo, u_dir) else { break };
+                let Some(w) = self.scatter(&s, &bs, &mut ray) else { break };
+                beta *= 2.0 * w;
+            } else {
+                l += beta * self.emitted(est, depth, prev, &s, &ray);
+                let (u_pick, u_light) = (sampler.get_1d(), sampler.get_2d());
+                let (u_lobe, u_dir) = (sampler.get_1d(), sampler.get_2d());
+                let Some(bsdf) = s.bsdf.filter(|_| depth < self.settings.max_depth) else { break };
+                if matches!(est, Estimator::Light | Estimator::Mis) {
+                    l += beta * self.direct(est, &s, &bsdf, u_pick, u_light);
+                }
+                let Some(bs) = bsdf.sample(s.wo, u_lobe, u_dir) else { break };
+                let Some(w) = self.scatter(&s, &bs, &mut ray) else { break };
+                beta *= w;
+                prev = Some(Bounce { p: s.p.p, n: s.frame.n, bsdf_pdf: bs.pdf });
+            }
+            max_weight = max_weight.max(beta.max_element());
+            if !survives_roulette(self.settings.roulette, depth, &mut beta, sampler.get_1d()) {
+                break;
+            }
+        }
+        PathSample { radiance: l, max_weight }
+    }
+
+    /// Radiance picked up when a ray leaves the scene.
+    fn escaped(&self, est: Estimator, prev: Option<Bounce>, dir: Vec3) -> Vec3 {
+        let lb = self.lights.background();
+        match (est, prev) {
+            (Estimator::Naive | Estimator::Bsdf, _) | (_, None) => lb,
+            (Estimator::Light, Some(_)) => Vec3::ZERO,
+            (Estimator::Mis, Some(b)) => {
+                let light_pdf = self.lights.pdf_background(b.n, dir.normalize());
+                lb * power_heuristic(1.0, b.bsdf_pdf, 1.0, light_pdf)
+            }
+        }
+    }
+
+    /// Emission at a hit, weighted as the estimator requires.
+    fn emitted(&self, est: Estimator, depth: u32, prev: Option<Bounce>, s: &Surface, ray: &Ray) -> Vec3 {
+        if s.le == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        match (est, prev) {
+            (_, None) | (Estimator::Bsdf, _) => s.le,
+            (Estimator::Mis, Some(b)) if s.light != NO_LIGHT => {
+                let light_pdf = self.lights.pdf_area(s.light, b.p, s.p.p, ray.dir.normalize());
+                s.le * power_heuristic(1.0, b.bsdf_pdf, 1.0, light_pdf)
+            }
+            _ if depth == 0 => s.le,
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// Next-event estimation: one light sample, MIS-weighted for `Mis`.
+    fn direct(&self, est: Estimator, s: &Surface, bsdf: &Bsdf, u_pick: f32, u: Vec2) -> Vec3 {
+        let Some(ls) = self.lights.sample(s.p.p, s.frame.n, u_pick, u) else { return Vec3::ZERO };
+        if ls.wi.dot(s.ng) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let wi = s.frame.to_local(ls.wi);
+        let f = bsdf.eval(s.wo, wi);
+        if f == Vec3::ZERO || wi.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let blocked = match ls.target {
+            Target::Point { p, ng } => self.scene.accel.occluded(&s.p.spawn_to(s.ng, &p, ng), 1.0 - SHADOW_EPSILON),
+            Target::Infinite => self.scene.accel.occluded(&s.p.spawn(s.ng, ls.wi), f32::INFINITY),
+        };
+        if blocked {
+            return Vec3::ZERO;
+        }
+        let mis = if est == Estimator::Mis && !ls.delta {
+            power_heuristic(1.0, ls.pdf, 1.0, bsdf.pdf(s.wo, wi))
+        } else {
+            1.0
+        };
+        f * ls.li * (wi.z * mis / ls.pdf)
+    }
+
+    /// Continues the path along a BSDF sample; returns the throughput factor f·cos/pdf.
+    fn scatter(&self, s: &Surface, bs: &BsdfSample, ray: &mut Ray) -> Option<Vec3> {
+        let wi = s.frame.to_world(bs.wi);
+        // A direction above the shading normal but below the surface would pass through it.
+        if wi.dot(s.ng) <= 0.0 || !(bs.pdf > 0.0) {
+            return None;
+        }
+        let w = bs.f * (bs.wi.z / bs.pdf);
+        if !w.is_finite() {
+            return None;
+        }
+        *ray = s.p.spawn(s.ng, wi);
+        Some(w)
+    }
+
+    fn surface(&self, ray: &Ray) -> Option<Surface> {
+        let hit = self.scene.accel.intersect(ray, f32::INFINITY)?;
+        let mesh = &self.scene.mesh;
+        let i = hit.prim as usize;
+        let b0 = 1.0 - hit.b1 - hit.b2;
+        let v = &mesh.positions[i];
+        let p = ErrPoint::from_barycentric(v, b0, hit.b1, hit.b2);
+        let mut ng = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+        let nv = &mesh.normals[i];
+        let mut ns = (nv[0] * b0 + nv[1] * hit.b1 + nv[2] * hit.b2).normalize_or(ng);
+        let wo_world = -ray.dir.normalize();
+        let material = &self.scene.materials[mesh.material[i] as usize];
+        let le = material.emitted(ng, wo_world);
+        if ns.dot(ng) < 0.0 {
+            ns = -ns;
+        }
+        let front = ng.dot(wo_world) > 0.0;
+        if !front && material.double_sided {
+            ng = -ng;
+            ns = -ns;
+        }
+        let uv_set = material.base_color_texture.map_or(0, |t| t.tex_coord.min(1) as usize);
+        let uvs = &mesh.uvs[i][uv_set];
+        let uv = uvs[0] * b0 + uvs[1] * hit.b1 + uvs[2] * hit.b2;
+        let bsdf = (front || material.double_sided)
+            .then(|| material.bsdf(uv, &self.scene.textures))
+            .filter(|b| !b.is_black());
+        let frame = Frame::from_normal(ns);
+        let wo = frame.to_local(wo_world);
+        Some(Surface { p, ng, frame, wo, bsdf, le, light: self.scene.tri_light[i] })
+    }
+}
+
+/// Applies Russian roulette; false when the path stops. Survivors are reweighted by 1/q.
+fn survives_roulette(rr: Roulette, depth: u32, beta: &mut Vec3, u: f32) -> bool {
+    let q = match rr {
+        Roulette::Off => return true,
+        Roulette::Threshold { threshold, p } => {
+            if beta.max_element() >= threshold {
+                return true;
+            }
+            1.0 - p
+        }
+        Roulette::Throughput { min_depth } => {
+            if depth + 1 < min_depth || beta.max_element() >= 1.0 {
+                return true;
+            }
+            beta.max_element()
+        }
+    };
+    if !(u < q) {
+        return false;
+    }
+    *beta /= q;
+    true
+}
+
+#[cfg(test)]
+#[path = "integrator_tests.rs"]
+mod tests;

@@ -1,0 +1,224 @@
+//! Lights: emissive triangles, glTF punctual lights and a constant background, as one closed set.
+//!
+//! | kind          | source                              | quantity (linear RGB)                  |
+//! |---------------|-------------------------------------|----------------------------------------|
+//! | `Triangle`    | a triangle whose material emits     | radiance L (W·m⁻²·sr⁻¹)                |
+//! | `Point`       | `KHR_lights_punctual` "point"       | intensity I (W·sr⁻¹; glTF candela × colour) |
+//! | `Spot`        | `KHR_lights_punctual` "spot"        | intensity I, glTF's smooth cone falloff |
+//! | `Directional` | `KHR_lights_punctual` "directional" | irradiance E (W·m⁻²; glTF lux × colour) |
+//! | `Background`  | the job's `background` setting       | radiance L from every direction        |
+//!
+//! glTF's photometric units are used as radiometric ones (no 683 lm/W factor): a light of
+//! intensity 1 in the file gives radiance of order 1 in the image. Point, spot and directional
+//! lights are delta lights: they are reached only by light sampling, never by a BSDF ray.
+//! A [`LightSet`] picks lights in proportion to their power, so dim lights cost little.
+use crate::tracer::ray::ErrPoint;
+use crate::tracer::sampling::{Frame, cosine_hemisphere, luminance, uniform_triangle};
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Light {
+    Triangle { tri: u32, v: [Vec3; 3], n: Vec3, area: f32, radiance: Vec3, two_sided: bool },
+    Point { position: Vec3, intensity: Vec3 },
+    Spot { position: Vec3, axis: Vec3, intensity: Vec3, cos_inner: f32, cos_outer: f32 },
+    Directional { dir: Vec3, irradiance: Vec3 },
+    Background { radiance: Vec3 },
+}
+
+/// Where a light sample lies, for the shadow ray.
+#[derive(Clone, Copy, Debug)]
+pub enum Target {
+    /// A point on a surface (normal `ng`) or a punctual light (`ng` zero).
+    Point { p: ErrPoint, ng: Vec3 },
+    /// Infinitely far along `wi`.
+    Infinite,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Radiance arriving along `wi` (for delta lights: the delta's weight, e.g. I/d²).
+    pub li: Vec3,
+    /// Unit direction towards the light.
+    pub wi: Vec3,
+    /// Solid-angle density including the choice of light; for delta lights the choice probability.
+    pub pdf: f32,
+    pub delta: bool,
+    pub target: Target,
+}
+
+impl Light {
+    /// An area light for triangle `tri`; None for degenerate triangles (zero area, no direction).
+    pub fn triangle(tri: u32, v: &[Vec3; 3], radiance: Vec3, two_sided: bool) -> Option<Light> {
+        let c = (v[1] - v[0]).cross(v[2] - v[0]);
+        let area = 0.5 * c.length();
+        let n = c.normalize_or_zero();
+        (area > 0.0 && area.is_finite() && n != Vec3::ZERO)
+            .then_some(Light::Triangle { tri, v: *v, n, area, radiance, two_sided })
+    }
+
+    /// Emitted power (luminance), used only to choose lights in proportion to it.
+    fn power(&self, scene_radius: f32) -> f32 {
+        let disc = PI * scene_radius * scene_radius;
+        match self {
+            Light::Triangle { area, radiance, two_sided, .. } => {
+                luminance(*radiance) * area * PI * if *two_sided { 2.0 } else { 1.0 }
+            }
+            Light::Point { intensity, .. } => 4.0 * PI * luminance(*intensity),
+            Light::Spot { intensity, cos_inner, cos_outer, .. } => {
+                2.0 * PI * luminance(*intensity) * (1.0 - 0.5 * (cos_inner + cos_outer))
+            }
+            Light::Directional { irradiance, .. } => disc * luminance(*irradiance),
+            Light::Background { radiance } => disc * PI * luminance(*radiance),
+        }
+    }
+
+    /// Samples incident light at `p` (shading normal `n`), ignoring visibility and choice probability.
+    fn sample(&self, p: Vec3, n: Vec3, u: Vec2) -> Option<LightSample> {
+        match *self {
+            Light::Triangle { v, n: ln, area, radiance, two_sided, .. } => {
+                let (b1, b2) = uniform_triangle(u);
+                let q = ErrPoint::from_barycentric(&v, 1.0 - b1 - b2, b1, b2);
+                let d = q.p - p;
+                let dist2 = d.length_squared();
+                let wi = d / dist2.sqrt();
+                let cos_l = -ln.dot(wi);
+                if !(cos_l > 0.0 || two_sided && cos_l < 0.0) {
+                    return None;
+                }
+                let pdf = dist2 / (cos_l.abs() * area);
+                (pdf.is_finite() && pdf > 0.0).then_some(LightSample {
+                    li: radiance,
+                    wi,
+                    pdf,
+                    delta: false,
+                    target: Target::Point { p: q, ng: ln },
+                })
+            }
+            Light::Point { position, intensity } => punctual(p, position, intensity),
+            Light::Spot { position, axis, intensity, cos_inner, cos_outer } => {
+                let mut s = punctual(p, position, intensity)?;
+                s.li *= spot_falloff(-s.wi.dot(axis), cos_inner, cos_outer);
+                (s.li.max_element() > 0.0).then_some(s)
+            }
+            Light::Directional { dir, irradiance } => {
+                Some(LightSample { li: irradiance, wi: -dir, pdf: 1.0, delta: true, target: Target::Infinite })
+            }
+            Light::Background { radiance } => {
+                let local = cosine_hemisphere(u);
+                let wi = Frame::from_normal(n).to_world(local);
+                let pdf = local.z / PI;
+                (pdf > 0.0).then_some(LightSample { li: radiance, wi, pdf, delta: false, target: Target::Infinite })
+            }
+        }
+    }
+}
+
+fn punctual(p: Vec3, position: Vec3, intensity: Vec3) -> Option<LightSample> {
+    let d = position - p;
+    let dist2 = d.length_squared();
+    if !(dist2 > 0.0 && dist2.is_finite()) {
+        return None;
+    }
+    Some(LightSample {
+        li: intensity / dist2,
+        wi: d / dist2.sqrt(),
+        pdf: 1.0,
+        delta: true,
+        target: Target::Point { p: ErrPoint::exact(position), ng: Vec3::ZERO },
+    })
+}
+
+/// glTF KHR_lights_punctual's recommended falloff: a squared linear ramp in cos θ.
+fn spot_falloff(cos_theta: f32, cos_inner: f32, cos_outer: f32) -> f32 {
+    let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
+    let t = ((cos_theta - cos_outer) * scale).clamp(0.0, 1.0);
+    t * t
+}
+
+/// The lights of one render (the scene's plus the job's background), chosen by power.
+pub struct LightSet<'a> {
+    scene_lights: &'a [Light],
+    background: Option<Light>,
+    /// Choice probability per light; the background, if any, is last.
+    pmf: Vec<f32>,
+    cdf: Vec<f32>,
+}
+
+impl<'a> LightSet<'a> {
+    pub fn new(scene_lights: &'a [Light], background: Vec3, scene_radius: f32) -> LightSet<'a> {
+        let background = (background.max_element() > 0.0).then_some(Light::Background { radiance: background });
+        let powers: Vec<f32> =
+            scene_lights.iter().chain(background.iter()).map(|l| l.power(scene_radius).max(0.0)).collect();
+        let total: f32 = powers.iter().sum();
+        let n = powers.len() as f32;
+        let pmf: Vec<f32> = if total > 0.0 && total.is_finite() {
+            powers.iter().map(|p| p / total).collect()
+        } else {
+            powers.iter().map(|_| 1.0 / n).collect()
+        };
+        let mut acc = 0.0;
+        let cdf = pmf.iter().map(|p| {
+            acc += p;
+            acc
+        });
+        let cdf = cdf.collect();
+        LightSet { scene_lights, background, pmf, cdf }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pmf.is_empty()
+    }
+
+    pub fn background(&self) -> Vec3 {
+        match self.background {
+            Some(Light::Background { radiance }) => radiance,
+            _ => Vec3::ZERO,
+        }
+    }
+
+    fn light(&self, i: usize) -> &Light {
+        self.scene_lights.get(i).unwrap_or_else(|| self.background.as_ref().expect("index in range"))
+    }
+
+    /// Picks a light by power with `u_pick` and samples it from `p` with shading normal `n`.
+    pub fn sample(&self, p: Vec3, n: Vec3, u_pick: f32, u: Vec2) -> Option<LightSample> {
+        let last = self.cdf.len().checked_sub(1)?;
+        let i = self.cdf.partition_point(|&c| c <= u_pick).min(last);
+        let pick = self.pmf[i];
+        if pick == 0.0 {
+            return None;
+        }
+        let mut s = self.light(i).sample(p, n, u)?;
+        s.pdf *= pick;
+        Some(s)
+    }
+
+    /// Solid-angle density with which `sample` returns the point `q` (normal `ng`) of area light
+    /// `light` as seen from `p`.
+    pub fn pdf_area(&self, light: u32, p: Vec3, q: Vec3, wi: Vec3) -> f32 {
+        match self.scene_lights[light as usize] {
+            Light::Triangle { n, area, two_sided, .. } => {
+                let cos_l = -n.dot(wi);
+                if !(cos_l > 0.0 || two_sided && cos_l < 0.0) {
+                    return 0.0;
+                }
+                self.pmf[light as usize] * (q - p).length_squared() / (cos_l.abs() * area)
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Density with which `sample` returns direction `wi` towards the background from a point
+    /// with shading normal `n`.
+    pub fn pdf_background(&self, n: Vec3, wi: Vec3) -> f32 {
+        if self.background.is_none() {
+            return 0.0;
+        }
+        self.pmf[self.pmf.len() - 1] * n.dot(wi).max(0.0) / PI
+    }
+}
+
+#[cfg(test)]
+#[path = "light_tests.rs"]
+mod tests;

@@ -1,0 +1,25 @@
+//! The path tracer: pure functions from a [`Scene`] and a unit of work to partial sums.
+//!
+//! One file per family, as in pbrt-v4: closed sets of types are enums dispatched by one `match`
+//! ([`bsdf::Bsdf`], [`light::Light`]). The tracer never touches files, sockets or clocks.
+pub mod accel;
+pub mod bsdf;
+pub mod camera;
+pub mod film;
+pub mod integrator;
+pub mod light;
+pub mod material;
+pub mod ray;
+pub mod render;
+pub mod sampler;
+pub mod sampling;
+pub mod scene;
+pub mod texture;
+
+#[cfg(test)]
+mod chi2;
+
+pub use film::{PixelSums, Tile, TileSums};
+pub use integrator::{Estimator, Roulette};
+pub use render::{RenderSettings, render_tile};
+pub use scene::Scene;

@@ -1,0 +1,82 @@
+//! Rendering one unit: a tile over a range of sample indices, in parallel over rows.
+//!
+//! Each pixel's samples are summed in sample-index order by a single thread, and each sample's
+//! random numbers depend only on (seed, pixel, sample index, dimension), so the result is
+//! bit-identical whatever the thread count or the machine.
+use crate::tracer::film::{PixelSums, Tile, TileSums};
+use crate::tracer::integrator::{Integrator, PathSettings};
+use crate::tracer::sampler::{Sampler, SamplerKind};
+use crate::tracer::scene::Scene;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::ops::Range;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub seed: u64,
+    pub sampler: SamplerKind,
+    pub path: PathSettings,
+    /// Constant background radiance (linear RGB); zero means none.
+    pub background: Vec3,
+    /// Camera name; the scene's first camera when None.
+    pub camera: Option<String>,
+}
+
+impl RenderSettings {
+    pub fn full_frame(&self) -> Tile {
+        Tile { x0: 0, y0: 0, w: self.width, h: self.height }
+    }
+}
+
+/// Renders sample indices `samples` of every pixel in `tile`.
+pub fn render_tile(scene: &Scene, settings: &RenderSettings, tile: Tile, samples: Range<u32>) -> Result<TileSums, String> {
+    if tile.x0 + tile.w > settings.width || tile.y0 + tile.h > settings.height {
+        return Err(format!("tile {tile:?} exceeds the {}×{} image", settings.width, settings.height));
+    }
+    let camera = scene.camera(settings.camera.as_deref())?.raster(settings.width, settings.height);
+    let integrator = Integrator::new(scene, settings.background, settings.path);
+    let mut out = TileSums::new(tile);
+    let rows: Vec<(u64, f32)> = out
+        .pixels
+        .par_chunks_mut(tile.w.max(1) as usize)
+        .enumerate()
+        .map(|(row, pixels)| {
+            let py = tile.y0 + row as u32;
+            let (mut dropped, mut max_weight) = (0u64, 0f32);
+            for (col, sums) in pixels.iter_mut().enumerate() {
+                let px = tile.x0 + col as u32;
+                for index in samples.clone() {
+                    let mut sampler = Sampler::start(settings.sampler, settings.seed, px, py, index);
+                    let ray = camera.ray(px, py, sampler.get_2d());
+                    let s = integrator.li(ray, &mut sampler);
+                    if s.radiance.is_finite() {
+                        sums.add_sample(s.radiance);
+                        max_weight = max_weight.max(s.max_weight);
+                    } else {
+                        dropped += 1;
+                    }
+                }
+            }
+            (dropped, max_weight)
+        })
+        .collect();
+    for (d, w) in rows {
+        out.dropped += d;
+        out.max_weight = out.max_weight.max(w);
+    }
+    Ok(out)
+}
+
+/// Mean radiance over a whole frame of sums (for tests and quick checks).
+pub fn frame_mean(pixels: &[PixelSums]) -> [f64; 3] {
+    let mut m = [0.0; 3];
+    for p in pixels {
+        let pm = p.mean();
+        for c in 0..3 {
+            m[c] += pm[c];
+        }
+    }
+    m.map(|v| v / pixels.len().max(1) as f64)
+}

@@ -1,0 +1,118 @@
+//! The renderable scene: world-space triangles, materials, textures, lights, cameras and the BVH.
+//!
+//! Built once per scene (by [`crate::scene`] from glTF, or directly in tests) and then shared
+//! read-only by every thread and every unit that renders it.
+use crate::tracer::accel::{Accel, BvhKind};
+use crate::tracer::camera::Camera;
+use crate::tracer::light::Light;
+use crate::tracer::material::Material;
+use crate::tracer::texture::Texture;
+use glam::{Vec2, Vec3};
+
+/// Triangle soup in world space; index `i` in every vector describes triangle `i`.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    pub positions: Vec<[Vec3; 3]>,
+    /// Unit shading normals per corner (the face normal where the file has none).
+    pub normals: Vec<[Vec3; 3]>,
+    /// Texture coordinates per corner for UV sets 0 and 1 (zero where absent).
+    pub uvs: Vec<[[Vec2; 3]; 2]>,
+    pub material: Vec<u32>,
+}
+
+impl Mesh {
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Appends a triangle with flat normals and no UVs.
+    pub fn push_flat(&mut self, v: [Vec3; 3], material: u32) {
+        let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+        self.positions.push(v);
+        self.normals.push([n; 3]);
+        self.uvs.push([[Vec2::ZERO; 3]; 2]);
+        self.material.push(material);
+    }
+}
+
+pub struct Scene {
+    pub mesh: Mesh,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub cameras: Vec<Camera>,
+    /// Area lights (one per emissive triangle of non-zero area) followed by punctual lights.
+    pub lights: Vec<Light>,
+    /// Triangle → index in `lights`, or `NO_LIGHT`.
+    pub tri_light: Vec<u32>,
+    pub accel: Accel,
+    /// Centre and radius of a sphere bounding all geometry (for infinite lights).
+    pub bounds_centre: Vec3,
+    pub bounds_radius: f32,
+}
+
+pub const NO_LIGHT: u32 = u32::MAX;
+
+impl Scene {
+    /// Builds lights and the BVH. `punctual` are the scene's non-geometric lights.
+    pub fn new(
+        mesh: Mesh,
+        materials: Vec<Material>,
+        textures: Vec<Texture>,
+        cameras: Vec<Camera>,
+        punctual: Vec<Light>,
+    ) -> Scene {
+        Scene::with_bvh(mesh, materials, textures, cameras, punctual, BvhKind::Wide)
+    }
+
+    pub fn with_bvh(
+        mesh: Mesh,
+        materials: Vec<Material>,
+        textures: Vec<Texture>,
+        cameras: Vec<Camera>,
+        punctual: Vec<Light>,
+        kind: BvhKind,
+    ) -> Scene {
+        let mut lights = Vec::new();
+        let mut tri_light = vec![NO_LIGHT; mesh.len()];
+        for (i, tri) in mesh.positions.iter().enumerate() {
+            let m = &materials[mesh.material[i] as usize];
+            if m.is_emissive() {
+                if let Some(l) = Light::triangle(i as u32, tri, m.emission, m.double_sided) {
+                    tri_light[i] = lights.len() as u32;
+                    lights.push(l);
+                }
+            }
+        }
+        lights.extend(punctual);
+        let (bounds_centre, bounds_radius) = bounding_sphere(&mesh.positions);
+        let accel = Accel::build(&mesh.positions, kind);
+        Scene { mesh, materials, textures, cameras, lights, tri_light, accel, bounds_centre, bounds_radius }
+    }
+
+    pub fn camera(&self, name: Option<&str>) -> Result<&Camera, String> {
+        match name {
+            Some(n) => self.cameras.iter().find(|c| c.name == n).ok_or_else(|| {
+                let names: Vec<&str> = self.cameras.iter().map(|c| c.name.as_str()).collect();
+                format!("no camera named {n:?} (the scene has {names:?})")
+            }),
+            None => self.cameras.first().ok_or_else(|| "the scene has no perspective camera".to_string()),
+        }
+    }
+}
+
+fn bounding_sphere(tris: &[[Vec3; 3]]) -> (Vec3, f32) {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for v in tris.iter().flatten() {
+        lo = lo.min(*v);
+        hi = hi.max(*v);
+    }
+    if tris.is_empty() {
+        return (Vec3::ZERO, 1.0);
+    }
+    let c = (lo + hi) * 0.5;
+    (c, ((hi - lo).length() * 0.5).max(1e-6))
+}
