@@ -1,4 +1,22 @@
-//! Wire types shared by the coordinator and its workers.
+//! Wire types shared by the coordinator, its workers and its clients.
 //!
-//! Everything that crosses the network lives here and only here, so that the tracer
-//! (`tessera-worker::tracer`) stays free of serde and the HTTP layer.
+//! Everything that crosses the network is defined here and only here, so that the tracer
+//! (`tessera_worker::tracer`) stays free of serde and the HTTP layer.
+//!
+//! # Layout
+//! - [`job`]: what clients send (`JobRequest`) and read back (`Job`).
+//! - [`scene`]: the answer to a scene upload.
+//! - [`lease`]: the worker protocol (register, lease, heartbeat, result).
+//! - [`sums`]: the compact binary form of a unit's partial sums.
+//! - [`problem`]: RFC 9457 problem details for every error.
+pub mod job;
+pub mod lease;
+pub mod problem;
+pub mod scene;
+pub mod sums;
+
+pub use job::{Job, JobList, JobRequest, JobState, Progress, RenderParams};
+pub use lease::{Heartbeat, Lease, LeaseRequest, Registration, WorkerHello, WorkerInfo};
+pub use problem::Problem;
+pub use scene::SceneUploaded;
+pub use sums::{PartialSums, SumsError, TileRect, WirePixel};

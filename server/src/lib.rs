@@ -9,3 +9,4 @@ pub mod bundled;
 pub mod image;
 pub mod local;
 pub mod output;
+pub mod scheduler;

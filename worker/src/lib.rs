@@ -6,10 +6,13 @@
 //!   format, so it is deterministic and testable on its own.
 //! - [`scene`]: glTF 2.0 → [`tracer::Scene`]. The only place that parses files; it validates
 //!   everything it reads and reports errors that name the offending mesh, primitive or material.
+//! - [`client`]: the worker process: registers with a coordinator, leases units, renders them on a
+//!   dedicated thread pool with heartbeats, and uploads the partial sums (tokio + reqwest).
 //!
 //! # Invariants
 //! - Every random number is a pure function of (seed, pixel, sample index, dimension), see
 //!   [`tracer::sampler`]. A unit rendered twice, on any machine or thread count, gives the same bits.
 //! - A unit returns partial sums (f64), never averages, so merging units is exact addition.
+pub mod client;
 pub mod scene;
 pub mod tracer;

@@ -10,6 +10,7 @@
 //! Every error names what is wrong and where ("mesh 3 primitive 0: POSITION accessor count 0").
 //! External files may only be plain relative paths below the scene's own directory.
 mod accessors;
+pub mod effects;
 mod geometry;
 mod materials;
 mod uri;
@@ -44,19 +45,51 @@ pub fn load_path(path: &Path) -> Result<Scene, SceneError> {
 
 /// Loads a glTF document from memory. With `base` None, only self-contained files load.
 pub fn load_bytes(bytes: &[u8], base: Option<&Path>) -> Result<Scene, SceneError> {
+    Ok(parse(bytes, base)?.build())
+}
+
+/// A validated scene whose BVH is not built yet: cheap to make, enough to describe the scene.
+pub struct Parsed {
+    mesh: crate::tracer::scene::Mesh,
+    materials: Vec<crate::tracer::material::Material>,
+    textures: Vec<crate::tracer::texture::Texture>,
+    cameras: Vec<crate::tracer::camera::Camera>,
+    lights: Vec<crate::tracer::light::Light>,
+}
+
+impl Parsed {
+    pub fn build(self) -> Scene {
+        Scene::new(self.mesh, self.materials, self.textures, self.cameras, self.lights)
+    }
+
+    pub fn triangles(&self) -> usize {
+        self.mesh.len()
+    }
+
+    pub fn cameras(&self) -> Vec<String> {
+        self.cameras.iter().map(|c| c.name.clone()).collect()
+    }
+
+    /// The light-transport features this scene calls for (see [`effects`]).
+    pub fn effects(&self) -> Vec<String> {
+        effects::of(&self.mesh, &self.materials, &self.textures, &self.lights)
+    }
+}
+
+/// Parses and validates a glTF document without building acceleration structures.
+pub fn parse(bytes: &[u8], base: Option<&Path>) -> Result<Parsed, SceneError> {
     let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| SceneError::new(format!("invalid glTF: {e}")))?;
     let doc = gltf.document;
     let buffers = uri::load_buffers(&doc, base, gltf.blob)?;
     let textures = materials::load_textures(&doc, base, &buffers)?;
-    let materials = materials::load_materials(&doc, textures.len())?;
+    let mut materials = materials::load_materials(&doc, textures.len())?;
     // Defence in depth: accessors are bounds-checked first, but a panic inside the gltf crate on
     // some input we did not foresee must still become an error, not a crashed worker.
     let parts = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| geometry::load(&doc, &buffers, materials.len())))
         .map_err(|_| SceneError::new("malformed mesh data (the glTF reader failed on it)"))??;
-    let mut materials = materials;
     // Primitives without a material use glTF's default material, appended last.
     materials.push(materials::default_material());
-    Ok(Scene::new(parts.mesh, materials, textures, parts.cameras, parts.lights))
+    Ok(Parsed { mesh: parts.mesh, materials, textures, cameras: parts.cameras, lights: parts.lights })
 }
 
 /// A short description of a loaded scene.
@@ -72,3 +105,5 @@ pub fn info(scene: &Scene) -> SceneInfo {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_formats;

@@ -21,5 +21,5 @@ mod chi2;
 
 pub use film::{PixelSums, Tile, TileSums};
 pub use integrator::{Estimator, Roulette};
-pub use render::{RenderSettings, render_tile};
+pub use render::{RenderSettings, render_tile, render_tile_cancellable};
 pub use scene::Scene;

@@ -10,6 +10,7 @@ use crate::tracer::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -32,6 +33,18 @@ impl RenderSettings {
 
 /// Renders sample indices `samples` of every pixel in `tile`.
 pub fn render_tile(scene: &Scene, settings: &RenderSettings, tile: Tile, samples: Range<u32>) -> Result<TileSums, String> {
+    let never = AtomicBool::new(false);
+    Ok(render_tile_cancellable(scene, settings, tile, samples, &never)?.expect("never canceled"))
+}
+
+/// As [`render_tile`], but gives up (returning `Ok(None)`) once `cancel` is set; checked per row.
+pub fn render_tile_cancellable(
+    scene: &Scene,
+    settings: &RenderSettings,
+    tile: Tile,
+    samples: Range<u32>,
+    cancel: &AtomicBool,
+) -> Result<Option<TileSums>, String> {
     if tile.x0 + tile.w > settings.width || tile.y0 + tile.h > settings.height {
         return Err(format!("tile {tile:?} exceeds the {}×{} image", settings.width, settings.height));
     }
@@ -43,6 +56,9 @@ pub fn render_tile(scene: &Scene, settings: &RenderSettings, tile: Tile, samples
         .par_chunks_mut(tile.w.max(1) as usize)
         .enumerate()
         .map(|(row, pixels)| {
+            if cancel.load(Ordering::Relaxed) {
+                return (0, 0.0);
+            }
             let py = tile.y0 + row as u32;
             let (mut dropped, mut max_weight) = (0u64, 0f32);
             for (col, sums) in pixels.iter_mut().enumerate() {
@@ -62,11 +78,14 @@ pub fn render_tile(scene: &Scene, settings: &RenderSettings, tile: Tile, samples
             (dropped, max_weight)
         })
         .collect();
+    if cancel.load(Ordering::Relaxed) {
+        return Ok(None);
+    }
     for (d, w) in rows {
         out.dropped += d;
         out.max_weight = out.max_weight.max(w);
     }
-    Ok(out)
+    Ok(Some(out))
 }
 
 /// Mean radiance over a whole frame of sums (for tests and quick checks).

@@ -56,6 +56,17 @@ pub struct Scene {
 
 pub const NO_LIGHT: u32 = u32::MAX;
 
+impl std::fmt::Debug for Scene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Scene")
+            .field("triangles", &self.mesh.len())
+            .field("materials", &self.materials.len())
+            .field("lights", &self.lights.len())
+            .field("cameras", &self.cameras.len())
+            .finish_non_exhaustive()
+    }
+}
+
 impl Scene {
     /// Builds lights and the BVH. `punctual` are the scene's non-geometric lights.
     pub fn new(

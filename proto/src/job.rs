@@ -1,0 +1,110 @@
+//! Jobs as clients see them.
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+/// `POST /v1/jobs`: what to render and when to stop. At least one of `spp`, `noise_target`,
+/// `time_limit_s` must be given; all given ones apply and the first reached ends the job.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JobRequest {
+    /// A scene id (sha256 from `POST /v1/scenes`) or a bundled scene name such as "cornell-box".
+    pub scene: String,
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel (the most any pixel gets).
+    pub spp: Option<u32>,
+    /// Stop each tile once its estimated relative MSE is at or below this.
+    pub noise_target: Option<f64>,
+    /// Stop issuing work after this many seconds and finish with what is merged.
+    pub time_limit_s: Option<f64>,
+    /// naive | bsdf | light | mis (default mis).
+    pub estimator: Option<String>,
+    /// sobol | independent (default sobol).
+    pub sampler: Option<String>,
+    pub seed: Option<u64>,
+    /// Camera name (default: the scene's first perspective camera).
+    pub camera: Option<String>,
+    /// Tile edge in pixels (default 64).
+    pub tile_size: Option<u32>,
+    /// Samples per pixel in one unit of work (default 16).
+    pub batch_spp: Option<u32>,
+    /// Safety cap on bounces (default 1024).
+    pub max_depth: Option<u32>,
+    /// Constant background radiance, linear RGB (default black).
+    pub background: Option<[f32; 3]>,
+    /// Higher runs first; equal priorities share workers fairly (default 0).
+    pub priority: Option<i32>,
+}
+
+/// The render settings a worker needs, fixed when the job is accepted.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct RenderParams {
+    pub width: u32,
+    pub height: u32,
+    pub seed: u64,
+    pub estimator: String,
+    pub sampler: String,
+    pub camera: Option<String>,
+    pub max_depth: u32,
+    pub background: [f32; 3],
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum JobState {
+    Queued,
+    Running,
+    Done,
+    Failed,
+    Canceled,
+}
+
+impl JobState {
+    pub fn is_final(self) -> bool {
+        matches!(self, JobState::Done | JobState::Failed | JobState::Canceled)
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct Progress {
+    /// Mean samples per pixel merged so far.
+    pub samples_done: f64,
+    /// Samples per pixel the job aims for (its `spp`, or its cap when only noise or time stop it).
+    pub samples_target: f64,
+    /// 0 to 1; for noise-target jobs the larger of the sample and the noise fractions.
+    pub fraction: f64,
+}
+
+/// `GET /v1/jobs/{id}`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct Job {
+    pub id: String,
+    pub state: JobState,
+    pub scene: String,
+    pub request: JobRequest,
+    pub progress: Progress,
+    /// Estimated relative MSE of the current image (mean over pixels and channels of
+    /// var(mean)/(mean² + 0.01)); null before two samples per pixel are merged.
+    pub noise: Option<f64>,
+    pub elapsed_s: f64,
+    pub eta_s: Option<f64>,
+    pub samples_per_s: f64,
+    /// Workers holding a lease on this job now.
+    pub workers: u32,
+    pub effects: Vec<String>,
+    /// [seconds since start, samples per pixel, noise] after each merge (thinned to ≤ 512 rows).
+    pub history: Vec<[f64; 3]>,
+    pub dropped_samples: u64,
+    pub max_sample_weight: f64,
+    /// Why the job failed, or how it ended.
+    pub message: Option<String>,
+    pub created_unix_ms: u64,
+}
+
+/// `GET /v1/jobs`: newest first.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct JobList {
+    pub jobs: Vec<Job>,
+    /// Pass as `?before=` to get the next page; null on the last page.
+    pub next: Option<String>,
+}

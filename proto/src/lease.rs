@@ -1,0 +1,67 @@
+//! The worker protocol. Workers pull; the coordinator never needs their addresses.
+//!
+//! 1. `POST /v1/workers` with [`WorkerHello`] → [`Registration`] (a worker id).
+//! 2. `POST /v1/leases` with [`LeaseRequest`] → `200` [`Lease`], or `204` when there is no work.
+//! 3. While rendering, `POST /v1/leases/{id}/heartbeat` → `200` [`Heartbeat`] (new deadline), or
+//!    `409` when the lease is gone (expired, job canceled): stop and drop the unit.
+//! 4. `PUT /v1/leases/{id}/result` with the binary [`crate::sums`] body → `204` merged,
+//!    `409` stale (late or duplicate: ignored, never counted twice), `422` malformed.
+//! 5. Scenes are fetched once per worker by hash: `GET /v1/scenes/{id}/data`.
+use crate::job::RenderParams;
+use crate::sums::TileRect;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct WorkerHello {
+    /// A human-readable name (host name by default).
+    pub name: String,
+    pub threads: u32,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct Registration {
+    pub worker_id: String,
+    /// Heartbeat at least this often while holding a lease.
+    pub heartbeat_ms: u64,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct LeaseRequest {
+    pub worker_id: String,
+}
+
+/// One unit of work: a tile of a job over a range of sample indices.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct Lease {
+    pub lease_id: String,
+    pub job_id: String,
+    /// sha256 of the scene bytes; fetch with `GET /v1/scenes/{scene_id}/data` if not cached.
+    pub scene_id: String,
+    pub params: RenderParams,
+    pub tile: TileRect,
+    /// Sample indices [start, end) of every pixel in the tile.
+    pub samples: [u32; 2],
+    /// Milliseconds from now until the lease expires unless a heartbeat extends it.
+    pub deadline_ms: u64,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct Heartbeat {
+    pub deadline_ms: u64,
+}
+
+/// `GET /v1/workers`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct WorkerInfo {
+    pub id: String,
+    pub name: String,
+    pub threads: u32,
+    /// The lease it holds now, as "job/tile/batch".
+    pub current: Option<String>,
+    pub units_done: u64,
+    pub failures: u64,
+    pub last_seen_ms_ago: u64,
+}

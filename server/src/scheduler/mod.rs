@@ -1,0 +1,283 @@
+//! The coordinator's brain: a plain state machine over jobs, leases and workers.
+//!
+//! It owns no clock and does no I/O: every operation takes `now` (milliseconds on any monotonic
+//! scale), so lease expiry, duplicates and late results are unit-tested without sleeping.
+//!
+//! Rules it keeps:
+//! - A unit (job, tile, batch) is leased to one worker at a time; an expired, released or
+//!   refused unit returns to its tile's queue with the same sample range.
+//! - A result is accepted once: late (lease gone) and duplicate results are `Stale` and never
+//!   counted twice.
+//! - Jobs of higher priority go first; equal priorities share workers (fewest leases in flight
+//!   first), then first come, first served.
+mod job;
+#[cfg(test)]
+mod tests;
+
+pub use job::{JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP};
+use std::collections::{BTreeMap, HashMap};
+use tessera_proto::{JobState, PartialSums, RenderParams, TileRect};
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Grant {
+    pub lease_id: String,
+    pub job_id: String,
+    pub scene_id: String,
+    pub params: RenderParams,
+    pub tile: TileRect,
+    pub samples: [u32; 2],
+    pub deadline_ms: u64,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ResultError {
+    /// The lease is unknown, expired, revoked or already completed: ignore the result.
+    Stale(String),
+    /// The result does not match its lease; the unit is queued again.
+    Malformed(String),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Accepted {
+    /// Merged (possibly buffered until earlier batches arrive).
+    Merged { job_finished: bool },
+    /// Valid but no longer needed (the tile reached its noise target meanwhile).
+    Unneeded,
+}
+
+#[derive(Clone, Debug)]
+struct LeaseRec {
+    job_seq: u64,
+    tile: usize,
+    batch: u32,
+    worker: String,
+    deadline: u64,
+}
+
+#[derive(Clone, Debug)]
+pub struct WorkerRec {
+    pub name: String,
+    pub threads: u32,
+    pub last_seen: u64,
+    pub units_done: u64,
+    pub failures: u64,
+    pub current: Option<String>,
+}
+
+pub struct Scheduler {
+    jobs: BTreeMap<u64, JobRun>,
+    by_id: HashMap<String, u64>,
+    leases: HashMap<String, LeaseRec>,
+    workers: BTreeMap<String, WorkerRec>,
+    next_seq: u64,
+    next_lease: u64,
+    next_worker: u64,
+    lease_timeout_ms: u64,
+}
+
+impl Scheduler {
+    pub fn new(lease_timeout_ms: u64) -> Scheduler {
+        Scheduler {
+            jobs: BTreeMap::new(),
+            by_id: HashMap::new(),
+            leases: HashMap::new(),
+            workers: BTreeMap::new(),
+            next_seq: 0,
+            next_lease: 0,
+            next_worker: 0,
+            lease_timeout_ms,
+        }
+    }
+
+    pub fn lease_timeout_ms(&self) -> u64 {
+        self.lease_timeout_ms
+    }
+
+    pub fn register_worker(&mut self, name: &str, threads: u32, now: u64) -> String {
+        self.next_worker += 1;
+        let id = format!("w{}", self.next_worker);
+        let rec = WorkerRec { name: name.to_string(), threads, last_seen: now, units_done: 0, failures: 0, current: None };
+        self.workers.insert(id.clone(), rec);
+        id
+    }
+
+    pub fn workers(&self) -> impl Iterator<Item = (&String, &WorkerRec)> {
+        self.workers.iter()
+    }
+
+    pub fn submit(&mut self, cfg: JobConfig) {
+        self.next_seq += 1;
+        self.by_id.insert(cfg.id.clone(), self.next_seq);
+        self.jobs.insert(self.next_seq, JobRun::new(cfg, self.next_seq));
+    }
+
+    pub fn job(&self, id: &str) -> Option<&JobRun> {
+        self.by_id.get(id).and_then(|s| self.jobs.get(s))
+    }
+
+    /// Jobs, newest first.
+    pub fn jobs_newest_first(&self) -> impl Iterator<Item = &JobRun> {
+        self.jobs.values().rev()
+    }
+
+    /// Distinct workers holding a lease on the job.
+    pub fn workers_on(&self, id: &str) -> u32 {
+        let Some(&seq) = self.by_id.get(id) else { return 0 };
+        let mut w: Vec<&str> = self.leases.values().filter(|l| l.job_seq == seq).map(|l| l.worker.as_str()).collect();
+        w.sort_unstable();
+        w.dedup();
+        w.len() as u32
+    }
+
+    /// Hands the worker its next unit, or None when there is nothing to do.
+    /// Err when the worker is unknown (e.g. registered with a previous coordinator).
+    pub fn lease(&mut self, worker: &str, now: u64) -> Result<Option<Grant>, String> {
+        self.tick(now);
+        let w = self.workers.get_mut(worker).ok_or_else(|| format!("unknown worker {worker:?}"))?;
+        w.last_seen = now;
+        let mut in_flight: HashMap<u64, usize> = HashMap::new();
+        for l in self.leases.values() {
+            *in_flight.entry(l.job_seq).or_default() += 1;
+        }
+        let pick = self
+            .jobs
+            .values()
+            .filter_map(|j| j.next_unit().map(|u| (j, u)))
+            .min_by_key(|(j, _)| (-j.cfg.priority, in_flight.get(&j.seq).copied().unwrap_or(0), j.seq))
+            .map(|(j, (tile, batch))| (j.seq, tile, batch));
+        let Some((seq, tile, batch)) = pick else { return Ok(None) };
+        let job = self.jobs.get_mut(&seq).expect("picked job exists");
+        job.mark_issued(tile, batch, now);
+        self.next_lease += 1;
+        let lease_id = format!("l{}-{}", self.next_lease, seq);
+        let deadline = now + self.lease_timeout_ms;
+        let rec = LeaseRec { job_seq: seq, tile, batch, worker: worker.to_string(), deadline };
+        self.leases.insert(lease_id.clone(), rec);
+        if let Some(w) = self.workers.get_mut(worker) {
+            w.current = Some(format!("{}/{}/{}", job.cfg.id, tile, batch));
+        }
+        Ok(Some(Grant {
+            lease_id,
+            job_id: job.cfg.id.clone(),
+            scene_id: job.cfg.scene_id.clone(),
+            params: job.cfg.params.clone(),
+            tile: job.tiles[tile].rect,
+            samples: job.samples_of(batch),
+            deadline_ms: self.lease_timeout_ms,
+        }))
+    }
+
+    /// Extends a live lease; None when it is gone (the worker should stop).
+    pub fn heartbeat(&mut self, lease_id: &str, now: u64) -> Option<u64> {
+        self.tick(now);
+        let timeout = self.lease_timeout_ms;
+        let l = self.leases.get_mut(lease_id)?;
+        l.deadline = now + timeout;
+        if let Some(w) = self.workers.get_mut(&l.worker) {
+            w.last_seen = now;
+        }
+        Some(timeout)
+    }
+
+    /// A worker gives a unit back unrendered.
+    pub fn release(&mut self, lease_id: &str) -> bool {
+        match self.leases.remove(lease_id) {
+            Some(l) => {
+                self.requeue(&l);
+                true
+            }
+            None => false,
+        }
+    }
+
+    pub fn complete(&mut self, lease_id: &str, sums: PartialSums, now: u64) -> Result<Accepted, ResultError> {
+        self.tick(now);
+        let l = self.leases.remove(lease_id).ok_or_else(|| ResultError::Stale(format!("lease {lease_id} is not active (expired, revoked or already completed)")))?;
+        let job = self.jobs.get_mut(&l.job_seq).expect("leases refer to live jobs");
+        let want_rect = job.tiles[l.tile].rect;
+        let want_samples = job.samples_of(l.batch);
+        let problem = if sums.tile != want_rect {
+            Some(format!("result is for tile {:?} but lease {lease_id} is for {:?}", sums.tile, want_rect))
+        } else if sums.samples != want_samples {
+            Some(format!("result covers samples {:?} but lease {lease_id} is for {:?}", sums.samples, want_samples))
+        } else {
+            None
+        };
+        if let Some(w) = self.workers.get_mut(&l.worker) {
+            w.last_seen = now;
+            w.current = None;
+            if problem.is_some() {
+                w.failures += 1;
+            } else {
+                w.units_done += 1;
+            }
+        }
+        if let Some(p) = problem {
+            job.requeue(l.tile, l.batch);
+            return Err(ResultError::Malformed(p));
+        }
+        if !job.wants(l.tile, l.batch) {
+            return Ok(Accepted::Unneeded);
+        }
+        job.accept(l.tile, l.batch, sums, now);
+        let finished = job.state.is_final();
+        self.revoke_unwanted(l.job_seq);
+        Ok(Accepted::Merged { job_finished: finished })
+    }
+
+    /// Cancels a job; its leases are revoked (their heartbeats answer "gone").
+    pub fn cancel(&mut self, id: &str, now: u64) -> Option<JobState> {
+        let seq = *self.by_id.get(id)?;
+        let job = self.jobs.get_mut(&seq)?;
+        job.finish(JobState::Canceled, now, Some("canceled by request".into()));
+        let state = job.state;
+        self.revoke_unwanted(seq);
+        Some(state)
+    }
+
+    /// Marks a job failed (e.g. its scene cannot be loaded).
+    pub fn fail(&mut self, id: &str, now: u64, why: String) {
+        if let Some(&seq) = self.by_id.get(id) {
+            self.jobs.get_mut(&seq).expect("indexed").finish(JobState::Failed, now, Some(why));
+            self.revoke_unwanted(seq);
+        }
+    }
+
+    /// Expires overdue leases and ends jobs whose time limit ran out. Returns the ids of jobs
+    /// that finished here.
+    pub fn tick(&mut self, now: u64) -> Vec<String> {
+        let expired: Vec<String> = self.leases.iter().filter(|(_, l)| l.deadline <= now).map(|(k, _)| k.clone()).collect();
+        for id in expired {
+            let l = self.leases.remove(&id).expect("listed");
+            if let Some(w) = self.workers.get_mut(&l.worker) {
+                w.failures += 1;
+                w.current = None;
+            }
+            self.requeue(&l);
+        }
+        let mut finished = Vec::new();
+        for job in self.jobs.values_mut() {
+            if !job.state.is_final() && job.out_of_time(now) {
+                job.finish(JobState::Done, now, Some("time limit reached".into()));
+                finished.push(job.cfg.id.clone());
+            }
+        }
+        let seqs: Vec<u64> = finished.iter().map(|id| self.by_id[id]).collect();
+        for s in seqs {
+            self.revoke_unwanted(s);
+        }
+        finished
+    }
+
+    fn requeue(&mut self, l: &LeaseRec) {
+        if let Some(job) = self.jobs.get_mut(&l.job_seq) {
+            job.requeue(l.tile, l.batch);
+        }
+    }
+
+    /// Drops leases whose unit the job no longer wants (finished job, tile past its noise stop).
+    fn revoke_unwanted(&mut self, seq: u64) {
+        let Some(job) = self.jobs.get(&seq) else { return };
+        self.leases.retain(|_, l| l.job_seq != seq || job.wants(l.tile, l.batch));
+    }
+}

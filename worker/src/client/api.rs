@@ -1,0 +1,219 @@
+//! The coordinator's worker endpoints, one call each, answers sorted into what the loop acts on.
+//!
+//! Every failure is either [`CallError::Transient`] (no connection, timeout, 5xx, 408, 429, a
+//! body that does not parse: worth retrying) or [`CallError::Fatal`] (any other status the
+//! protocol does not define for that endpoint).
+use anyhow::{Context, bail};
+use percent_encoding::{AsciiSet, NON_ALPHANUMERIC, utf8_percent_encode};
+use reqwest::{Client, Method, RequestBuilder, Response, StatusCode};
+use std::time::Duration;
+use tessera_proto::{Heartbeat, Lease, LeaseRequest, Problem, Registration, WorkerHello};
+
+#[derive(Debug)]
+pub(crate) enum CallError {
+    Transient(String),
+    Fatal(String),
+}
+
+impl std::fmt::Display for CallError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CallError::Transient(m) | CallError::Fatal(m) => f.write_str(m),
+        }
+    }
+}
+
+pub(crate) enum LeaseAnswer {
+    Lease(Box<Lease>),
+    /// 204: nothing to do right now.
+    NoWork,
+    /// 404: the coordinator does not know this worker (it restarted); register again.
+    UnknownWorker,
+}
+
+pub(crate) enum HeartbeatAnswer {
+    /// The lease now expires this long from now.
+    Extended(Duration),
+    /// 409 (expired, job canceled) or 404 (unknown, e.g. after a coordinator restart).
+    Gone,
+}
+
+pub(crate) enum UploadAnswer {
+    Merged,
+    /// 409 (late or duplicate) or 404 (the lease is unknown): ignored by the coordinator.
+    Stale,
+    /// 422, with the coordinator's explanation.
+    Malformed(String),
+}
+
+/// Request timeouts. Scene downloads may be large, hence their long one.
+const JSON_TIMEOUT: Duration = Duration::from_secs(30);
+const HEARTBEAT_TIMEOUT: Duration = Duration::from_secs(10);
+const UPLOAD_TIMEOUT: Duration = Duration::from_secs(120);
+const SCENE_TIMEOUT: Duration = Duration::from_secs(600);
+const RELEASE_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// Characters left as they are in an id placed in a URL path (ids are coordinator-made and
+/// normally URL-safe already; anything else is escaped rather than trusted).
+const SEGMENT: &AsciiSet = &NON_ALPHANUMERIC.remove(b'-').remove(b'_').remove(b'.').remove(b'~');
+
+#[derive(Debug)]
+pub(crate) struct Api {
+    http: Client,
+    base: String,
+    token: Option<String>,
+}
+
+impl Api {
+    pub(crate) fn new(coordinator: &str, token: Option<String>) -> anyhow::Result<Api> {
+        let base = coordinator.trim().trim_end_matches('/').to_owned();
+        let url = reqwest::Url::parse(&base).with_context(|| format!("coordinator address {coordinator:?} is not a URL"))?;
+        match url.scheme() {
+            "http" => {}
+            "https" => bail!("coordinator {base}: https is not built in; use http:// (put TLS in a proxy in front)"),
+            other => bail!("coordinator {base}: unsupported scheme {other:?} (expected http)"),
+        }
+        let http = Client::builder()
+            .connect_timeout(Duration::from_secs(5))
+            .tcp_nodelay(true)
+            .pool_idle_timeout(Duration::from_secs(30))
+            .user_agent(concat!("tessera-worker/", env!("CARGO_PKG_VERSION")))
+            .build()
+            .context("cannot build the HTTP client")?;
+        Ok(Api { http, base, token: token.filter(|t| !t.is_empty()) })
+    }
+
+    pub(crate) fn base(&self) -> &str {
+        &self.base
+    }
+
+    fn request(&self, method: Method, path: &str, timeout: Duration) -> RequestBuilder {
+        let rb = self.http.request(method, format!("{}{path}", self.base)).timeout(timeout);
+        match &self.token {
+            Some(t) => rb.bearer_auth(t),
+            None => rb,
+        }
+    }
+
+    pub(crate) async fn register(&self, hello: &WorkerHello) -> Result<Registration, CallError> {
+        let resp = send(self.request(Method::POST, "/v1/workers", JSON_TIMEOUT).json(hello), "registration").await?;
+        match resp.status() {
+            StatusCode::OK | StatusCode::CREATED => json(resp, "registration", |b| serde_json::from_slice::<Registration>(b)).await,
+            _ => Err(unexpected(resp, "registration").await),
+        }
+    }
+
+    pub(crate) async fn lease(&self, worker_id: &str) -> Result<LeaseAnswer, CallError> {
+        let body = LeaseRequest { worker_id: worker_id.to_owned() };
+        let resp = send(self.request(Method::POST, "/v1/leases", JSON_TIMEOUT).json(&body), "lease request").await?;
+        match resp.status() {
+            StatusCode::OK => Ok(LeaseAnswer::Lease(Box::new(json(resp, "lease request", |b| serde_json::from_slice::<Lease>(b)).await?))),
+            StatusCode::NO_CONTENT => Ok(LeaseAnswer::NoWork),
+            StatusCode::NOT_FOUND => Ok(LeaseAnswer::UnknownWorker),
+            _ => Err(unexpected(resp, "lease request").await),
+        }
+    }
+
+    pub(crate) async fn heartbeat(&self, lease_id: &str) -> Result<HeartbeatAnswer, CallError> {
+        let path = format!("/v1/leases/{}/heartbeat", segment(lease_id));
+        let resp = send(self.request(Method::POST, &path, HEARTBEAT_TIMEOUT), "heartbeat").await?;
+        match resp.status() {
+            StatusCode::OK => {
+                let hb = json(resp, "heartbeat", |b| serde_json::from_slice::<Heartbeat>(b)).await?;
+                Ok(HeartbeatAnswer::Extended(Duration::from_millis(hb.deadline_ms)))
+            }
+            StatusCode::CONFLICT | StatusCode::NOT_FOUND | StatusCode::GONE => Ok(HeartbeatAnswer::Gone),
+            _ => Err(unexpected(resp, "heartbeat").await),
+        }
+    }
+
+    pub(crate) async fn upload(&self, lease_id: &str, body: Vec<u8>) -> Result<UploadAnswer, CallError> {
+        let path = format!("/v1/leases/{}/result", segment(lease_id));
+        let rb = self
+            .request(Method::PUT, &path, UPLOAD_TIMEOUT)
+            .header(reqwest::header::CONTENT_TYPE, tessera_proto::sums::CONTENT_TYPE)
+            .body(body);
+        let resp = send(rb, "result upload").await?;
+        match resp.status() {
+            StatusCode::NO_CONTENT | StatusCode::OK => Ok(UploadAnswer::Merged),
+            StatusCode::CONFLICT | StatusCode::NOT_FOUND | StatusCode::GONE => Ok(UploadAnswer::Stale),
+            StatusCode::UNPROCESSABLE_ENTITY => Ok(UploadAnswer::Malformed(detail(resp).await)),
+            _ => Err(unexpected(resp, "result upload").await),
+        }
+    }
+
+    /// Gives a lease back unrendered. A lease the coordinator no longer has counts as returned.
+    pub(crate) async fn release(&self, lease_id: &str) -> Result<(), CallError> {
+        let path = format!("/v1/leases/{}", segment(lease_id));
+        let resp = send(self.request(Method::DELETE, &path, RELEASE_TIMEOUT), "lease release").await?;
+        match resp.status() {
+            s if s.is_success() => Ok(()),
+            StatusCode::CONFLICT | StatusCode::NOT_FOUND | StatusCode::GONE => Ok(()),
+            _ => Err(unexpected(resp, "lease release").await),
+        }
+    }
+
+    pub(crate) async fn scene(&self, scene_id: &str) -> Result<Vec<u8>, CallError> {
+        let path = format!("/v1/scenes/{}/data", segment(scene_id));
+        let resp = send(self.request(Method::GET, &path, SCENE_TIMEOUT), "scene download").await?;
+        match resp.status() {
+            StatusCode::OK => match resp.bytes().await {
+                Ok(b) => Ok(b.to_vec()),
+                Err(e) => Err(CallError::Transient(format!("scene download: {}", chain(&e)))),
+            },
+            _ => Err(unexpected(resp, "scene download").await),
+        }
+    }
+}
+
+fn segment(id: &str) -> String {
+    utf8_percent_encode(id, SEGMENT).to_string()
+}
+
+async fn send(rb: RequestBuilder, what: &str) -> Result<Response, CallError> {
+    rb.send().await.map_err(|e| CallError::Transient(format!("{what}: {}", chain(&e))))
+}
+
+/// Reads a JSON answer; `parse` is `serde_json::from_slice` at the wanted type (taking it as a
+/// function keeps serde itself out of the worker's dependencies).
+async fn json<T>(resp: Response, what: &str, parse: fn(&[u8]) -> serde_json::Result<T>) -> Result<T, CallError> {
+    let bytes = resp.bytes().await.map_err(|e| CallError::Transient(format!("{what}: {}", chain(&e))))?;
+    parse(&bytes).map_err(|e| CallError::Transient(format!("{what}: the answer does not parse: {e}")))
+}
+
+/// An error status the endpoint does not define: 5xx, 408 and 429 are worth retrying.
+async fn unexpected(resp: Response, what: &str) -> CallError {
+    let status = resp.status();
+    let msg = format!("{what}: {status}: {}", detail(resp).await);
+    if status.is_server_error() || status == StatusCode::REQUEST_TIMEOUT || status == StatusCode::TOO_MANY_REQUESTS {
+        CallError::Transient(msg)
+    } else {
+        CallError::Fatal(msg)
+    }
+}
+
+/// The `detail` of a problem+json body, or the start of whatever text came instead.
+async fn detail(resp: Response) -> String {
+    let text = resp.text().await.unwrap_or_default();
+    match serde_json::from_str::<Problem>(&text) {
+        Ok(p) if !p.detail.is_empty() => p.detail,
+        Ok(p) => p.title,
+        Err(_) if text.trim().is_empty() => "(no body)".to_owned(),
+        Err(_) => text.chars().take(300).collect(),
+    }
+}
+
+/// An error with its sources ("error sending request …: connection refused").
+pub(crate) fn chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut source = e.source();
+    while let Some(inner) = source {
+        let m = inner.to_string();
+        if !s.contains(&m) {
+            s.push_str(": ");
+            s.push_str(&m);
+        }
+        source = inner.source();
+    }
+    s
+}

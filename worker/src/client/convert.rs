@@ -1,0 +1,112 @@
+//! Between the wire types of `tessera_proto` and the tracer's own (the tracer knows no proto).
+use crate::tracer::integrator::PathSettings;
+use crate::tracer::sampler::SamplerKind;
+use crate::tracer::{Estimator, RenderSettings, Roulette, Tile, TileSums};
+use glam::Vec3;
+use std::str::FromStr;
+use tessera_proto::{PartialSums, RenderParams, TileRect, WirePixel};
+
+/// A unit's sums in wire form, bit for bit (`max_weight` widened to f64 exactly).
+/// `samples` is the unit's sample range `[start, end)`.
+pub fn to_wire(sums: &TileSums, samples: [u32; 2]) -> PartialSums {
+    let t = sums.tile;
+    PartialSums {
+        tile: TileRect { x0: t.x0, y0: t.y0, w: t.w, h: t.h },
+        samples,
+        dropped: sums.dropped,
+        max_weight: f64::from(sums.max_weight),
+        pixels: sums
+            .pixels
+            .iter()
+            .map(|p| WirePixel { sum: p.sum, sum_sq: p.sum_sq, sum_lum_sq: p.sum_lum_sq, count: p.count })
+            .collect(),
+    }
+}
+
+/// The tracer's settings for a job's render parameters (Russian roulette at its default).
+pub fn render_settings(params: &RenderParams) -> Result<RenderSettings, String> {
+    let estimator = Estimator::from_str(&params.estimator)?;
+    let sampler = SamplerKind::from_str(&params.sampler).map_err(|e| e.to_string())?;
+    if params.width == 0 || params.height == 0 {
+        return Err(format!("image size {}×{} is empty", params.width, params.height));
+    }
+    if !params.background.iter().all(|c| c.is_finite() && *c >= 0.0) {
+        return Err(format!("background {:?} must be finite and ≥ 0", params.background));
+    }
+    Ok(RenderSettings {
+        width: params.width,
+        height: params.height,
+        seed: params.seed,
+        sampler,
+        path: PathSettings { estimator, roulette: Roulette::default(), max_depth: params.max_depth },
+        background: Vec3::from_array(params.background),
+        camera: params.camera.clone(),
+    })
+}
+
+pub(crate) fn tile(rect: TileRect) -> Tile {
+    Tile { x0: rect.x0, y0: rect.y0, w: rect.w, h: rect.h }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tracer::PixelSums;
+
+    fn params() -> RenderParams {
+        RenderParams {
+            width: 64,
+            height: 48,
+            seed: 7,
+            estimator: "bsdf".into(),
+            sampler: "independent".into(),
+            camera: Some("Camera".into()),
+            max_depth: 12,
+            background: [0.5, 0.25, 0.0],
+        }
+    }
+
+    #[test]
+    fn render_settings_maps_every_field() {
+        let s = render_settings(&params()).unwrap();
+        assert_eq!((s.width, s.height, s.seed), (64, 48, 7));
+        assert_eq!(s.sampler, SamplerKind::Independent);
+        assert_eq!(s.path, PathSettings { estimator: Estimator::Bsdf, roulette: Roulette::default(), max_depth: 12 });
+        assert_eq!(s.background, Vec3::new(0.5, 0.25, 0.0));
+        assert_eq!(s.camera.as_deref(), Some("Camera"));
+    }
+
+    #[test]
+    fn render_settings_refuses_bad_params() {
+        for (p, why) in [
+            (RenderParams { estimator: "magic".into(), ..params() }, "estimator"),
+            (RenderParams { sampler: "halton".into(), ..params() }, "sampler"),
+            (RenderParams { width: 0, ..params() }, "empty"),
+            (RenderParams { background: [f32::NAN, 0.0, 0.0], ..params() }, "background"),
+        ] {
+            let e = render_settings(&p).unwrap_err();
+            assert!(e.contains(why), "{e:?} should mention {why}");
+        }
+    }
+
+    #[test]
+    fn to_wire_is_bit_exact_and_decodes() {
+        let tile = Tile { x0: 3, y0: 5, w: 2, h: 1 };
+        let mut sums = TileSums::new(tile);
+        sums.pixels[0] = PixelSums { sum: [0.1, 1e-300, 3.0], sum_sq: [0.01, 0.0, 9.0], sum_lum_sq: 0.3, count: 3 };
+        sums.pixels[1] = PixelSums { sum: [f64::MIN_POSITIVE, 2.0, 0.7], sum_sq: [0.0, 4.0, 0.49], sum_lum_sq: 1.1, count: 2 };
+        sums.dropped = 1;
+        sums.max_weight = 1.1f32;
+        let wire = to_wire(&sums, [8, 11]);
+        let back = PartialSums::decode(&wire.encode()).unwrap();
+        assert_eq!(back, wire);
+        assert_eq!(back.tile, TileRect { x0: 3, y0: 5, w: 2, h: 1 });
+        assert_eq!(back.max_weight.to_bits(), f64::from(1.1f32).to_bits());
+        for (w, p) in back.pixels.iter().zip(&sums.pixels) {
+            assert_eq!(w.sum.map(f64::to_bits), p.sum.map(f64::to_bits));
+            assert_eq!(w.sum_sq.map(f64::to_bits), p.sum_sq.map(f64::to_bits));
+            assert_eq!(w.sum_lum_sq.to_bits(), p.sum_lum_sq.to_bits());
+            assert_eq!(w.count, p.count);
+        }
+    }
+}

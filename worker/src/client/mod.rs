@@ -1,0 +1,501 @@
+//! The worker process: pulls units of work from a coordinator, renders them, returns the sums.
+//!
+//! ```text
+//! register ──► lease ──► scene (cached) ──► render on the pool ──► upload (in the background)
+//!    ▲           │ 204: poll again after a short backoff            │ at most one in flight
+//!    └── 404 ────┘                                                  ▼
+//!                 heartbeats every heartbeat_ms/3 (≤ 1 s) while a unit is held; 409 cancels it
+//! ```
+//!
+//! # Layout
+//! - this file: [`run`], the loop, one unit's life (`Worker::run_unit`) and result uploads.
+//! - `api`: one function per endpoint, answers sorted into what the loop acts on.
+//! - `retry`: backoff with jitter, the shutdown signal, retry-until-done.
+//! - `cache`: the last few loaded scenes by id.
+//! - `convert`: proto ⇄ tracer types ([`to_wire`], [`render_settings`]).
+//!
+//! # Rules
+//! - The tracer stays pure: rendering runs in `spawn_blocking` on a dedicated rayon pool of
+//!   `threads` threads; tokio and reqwest live here only.
+//! - A coordinator that is down, restarting or failing (connection errors, 5xx) never stops the
+//!   worker: calls retry with exponential backoff (100 ms → 5 s) for as long as it runs. Only a
+//!   refusal that retrying cannot fix (e.g. 401 for a wrong token) ends [`run`] with an error.
+//! - A lease that cannot be worked (scene missing or broken, bad parameters) is given back with
+//!   `DELETE` and the worker carries on.
+//! - Shutdown: no new leases; the unit in hand gets [`SHUTDOWN_GRACE`] to finish (and is then
+//!   uploaded) or is canceled and given back.
+mod api;
+mod cache;
+mod convert;
+mod retry;
+#[cfg(test)]
+mod tests;
+
+pub use convert::{render_settings, to_wire};
+
+use crate::tracer::{Scene, TileSums, render_tile_cancellable};
+use anyhow::{Context, anyhow};
+use api::{Api, CallError, HeartbeatAnswer, LeaseAnswer, UploadAnswer};
+use cache::{Cached, SceneCache};
+use retry::{Backoff, RETRY, Retried, Stop, until_done};
+use std::future::Future;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use tessera_proto::{Lease, Registration, WorkerHello};
+use tokio::task::JoinHandle;
+use tracing::{debug, error, info, warn};
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct WorkerConfig {
+    /// The coordinator's base URL, e.g. `http://127.0.0.1:7878` (plain HTTP).
+    pub coordinator: String,
+    /// Sent as `Authorization: Bearer <token>` on every request when set.
+    pub token: Option<String>,
+    /// Render threads; 0 means one per core.
+    pub threads: usize,
+    /// Shown by the coordinator (`GET /v1/workers`); the host name is a good choice.
+    pub name: String,
+}
+
+/// What a worker did before [`run`] returned.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WorkerReport {
+    /// Units rendered, uploaded and merged (204).
+    pub units_done: u64,
+    /// Units rendered but not merged: the coordinator answered 409 (late or duplicate), or the
+    /// upload could not get through before the lease's deadline.
+    pub units_stale: u64,
+    /// Units dropped unfinished: lease lost while rendering (409 on heartbeat, or its deadline
+    /// passed with the coordinator unreachable), or given back at shutdown.
+    pub units_canceled: u64,
+}
+
+/// How long the unit in hand may still take once shutdown is requested.
+pub const SHUTDOWN_GRACE: Duration = Duration::from_secs(2);
+/// How long a result upload still in flight at shutdown may take.
+const SHUTDOWN_UPLOAD_WAIT: Duration = Duration::from_secs(5);
+/// A lease request in flight at shutdown gets this long to answer (a lease granted meanwhile is
+/// given back rather than left to expire).
+const LEASE_DRAIN: Duration = Duration::from_millis(500);
+/// Polling while the coordinator has no work (204), and after a unit that could not be worked.
+const IDLE: Backoff = Backoff::new(Duration::from_millis(50), Duration::from_secs(1));
+const SCENE_ATTEMPTS: u32 = 5;
+const RELEASE_ATTEMPTS: u32 = 3;
+
+/// Runs a worker until `shutdown` resolves (then finishes up as described in the module docs).
+///
+/// Errors only for a bad configuration (an address that is not an `http://` URL, no threads) or
+/// a refusal retrying cannot fix, such as 401 for a wrong token; an unreachable or restarting
+/// coordinator is waited for.
+pub async fn run(config: WorkerConfig, shutdown: impl Future<Output = ()> + Send) -> anyhow::Result<WorkerReport> {
+    let worker = Worker::new(&config)?;
+    let (stop_tx, stop) = Stop::new();
+    let work = worker.main_loop(stop);
+    tokio::pin!(work, shutdown);
+    tokio::select! {
+        r = &mut work => return r,
+        () = &mut shutdown => {
+            info!("shutdown requested: taking no new work");
+            stop_tx.send_replace(true);
+        }
+    }
+    work.await
+}
+
+/// How a unit ended.
+enum Unit {
+    Rendered { sums: TileSums, deadline: Instant },
+    /// The lease was lost (409 on heartbeat, or its deadline passed): dropped.
+    Canceled,
+    /// Could not be worked (scene, parameters, renderer error): given back.
+    Failed,
+    /// Unfinished at the end of the shutdown grace: given back.
+    Abandoned,
+}
+
+/// How an upload ended.
+enum Uploaded {
+    Merged,
+    Stale,
+    /// Refused as malformed or for another reason retrying cannot fix (logged as an error).
+    Refused,
+}
+
+struct Worker {
+    name: String,
+    api: Arc<Api>,
+    pool: Arc<rayon::ThreadPool>,
+    scenes: Arc<Mutex<SceneCache>>,
+}
+
+impl Worker {
+    fn new(config: &WorkerConfig) -> anyhow::Result<Worker> {
+        let api = Api::new(&config.coordinator, config.token.clone())?;
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(config.threads)
+            .thread_name(|i| format!("tessera-render-{i}"))
+            .build()
+            .context("cannot start the render threads")?;
+        Ok(Worker {
+            name: config.name.clone(),
+            api: Arc::new(api),
+            pool: Arc::new(pool),
+            scenes: Arc::new(Mutex::new(SceneCache::default())),
+        })
+    }
+
+    async fn main_loop(&self, stop: Stop) -> anyhow::Result<WorkerReport> {
+        info!(coordinator = self.api.base(), threads = self.pool.current_num_threads(), name = %self.name, "worker starting");
+        let mut report = WorkerReport::default();
+        let mut uploading = None;
+        let result = self.serve(&stop, &mut report, &mut uploading).await;
+        if let Some(upload) = uploading.take() {
+            finish_upload(upload, Some(SHUTDOWN_UPLOAD_WAIT), &mut report).await;
+        }
+        info!(
+            units_done = report.units_done,
+            units_stale = report.units_stale,
+            units_canceled = report.units_canceled,
+            "worker stopped"
+        );
+        result.map(|()| report)
+    }
+
+    /// The loop proper; returns on shutdown or a fatal refusal.
+    async fn serve(&self, stop: &Stop, report: &mut WorkerReport, uploading: &mut Option<JoinHandle<Uploaded>>) -> anyhow::Result<()> {
+        let Some(mut reg) = self.register(stop).await? else { return Ok(()) };
+        let mut idle = IDLE;
+        loop {
+            let worker_id = reg.worker_id.as_str();
+            let answer = until_done("lease request", stop, LEASE_DRAIN, || self.api.lease(worker_id)).await;
+            let lease = match answer {
+                Retried::Done(LeaseAnswer::Lease(lease)) => lease,
+                Retried::Done(LeaseAnswer::NoWork) => {
+                    if !stop.sleep(idle.next_delay()).await {
+                        return Ok(());
+                    }
+                    continue;
+                }
+                Retried::Done(LeaseAnswer::UnknownWorker) => {
+                    info!(worker_id, "the coordinator does not know this worker (it restarted?): registering again");
+                    match self.register(stop).await? {
+                        Some(r) => reg = r,
+                        None => return Ok(()),
+                    }
+                    continue;
+                }
+                Retried::Fatal(e) => return Err(anyhow!("the coordinator refused to lease work: {e}")),
+                Retried::Stopped(late) => {
+                    if let Some(LeaseAnswer::Lease(lease)) = late {
+                        self.release(&lease.lease_id).await;
+                    }
+                    return Ok(());
+                }
+            };
+            match self.run_unit(&lease, heartbeat_every(&reg), stop).await {
+                Unit::Rendered { sums, deadline } => {
+                    idle.reset();
+                    let body = to_wire(&sums, lease.samples).encode();
+                    if let Some(previous) = uploading.take() {
+                        finish_upload(previous, None, report).await;
+                    }
+                    *uploading = Some(tokio::spawn(upload(self.api.clone(), lease.lease_id.clone(), body, deadline)));
+                }
+                Unit::Canceled => {
+                    report.units_canceled += 1;
+                    idle.reset();
+                }
+                Unit::Failed => {
+                    // Back off: the coordinator may hand the same broken unit straight back.
+                    if !stop.sleep(idle.next_delay()).await {
+                        return Ok(());
+                    }
+                }
+                Unit::Abandoned => {
+                    report.units_canceled += 1;
+                    return Ok(());
+                }
+            }
+        }
+    }
+
+    /// Registers, retrying until it works; None on shutdown.
+    async fn register(&self, stop: &Stop) -> anyhow::Result<Option<Registration>> {
+        let threads = u32::try_from(self.pool.current_num_threads()).unwrap_or(u32::MAX);
+        let hello = WorkerHello { name: self.name.clone(), threads };
+        match until_done("registration", stop, Duration::ZERO, || self.api.register(&hello)).await {
+            Retried::Done(reg) => {
+                info!(worker_id = %reg.worker_id, heartbeat_ms = reg.heartbeat_ms, coordinator = self.api.base(), "registered");
+                Ok(Some(reg))
+            }
+            Retried::Fatal(e) => Err(anyhow!("the coordinator refused to register this worker: {e}")),
+            Retried::Stopped(_) => Ok(None),
+        }
+    }
+
+    /// One unit: parameters, scene, render, all under heartbeats.
+    async fn run_unit(&self, lease: &Lease, heartbeat_every: Duration, stop: &Stop) -> Unit {
+        let id = lease.lease_id.as_str();
+        let deadline = Mutex::new(Instant::now() + Duration::from_millis(lease.deadline_ms));
+        debug!(lease = id, job = %lease.job_id, tile = ?lease.tile, samples = ?lease.samples, "leased a unit");
+        let settings = match check_unit(lease) {
+            Ok(s) => s,
+            Err(e) => {
+                error!(lease = id, job = %lease.job_id, "cannot work this unit: {e}; giving the lease back");
+                self.release(id).await;
+                return Unit::Failed;
+            }
+        };
+        let keep_alive = self.keep_alive(id, heartbeat_every, &deadline);
+        tokio::pin!(keep_alive);
+
+        // The scene: from the cache, or downloaded and loaded.
+        let scene = tokio::select! {
+            r = self.scene(&lease.scene_id) => match r {
+                Ok(scene) => scene,
+                Err(e) => {
+                    error!(lease = id, scene = %lease.scene_id, "{e}; giving the lease back");
+                    self.release(id).await;
+                    return Unit::Failed;
+                }
+            },
+            why = &mut keep_alive => {
+                info!(lease = id, "lease lost while fetching its scene: {why}");
+                return Unit::Canceled;
+            }
+            () = stop.wait() => {
+                self.release(id).await;
+                return Unit::Abandoned;
+            }
+        };
+
+        // The render, on the pool; the heartbeats and the shutdown request only set the flag,
+        // then wait for the pool to let go (within a row), so the next unit finds it free.
+        let started = Instant::now();
+        let cancel = Arc::new(AtomicBool::new(false));
+        let render = {
+            let (pool, cancel) = (self.pool.clone(), cancel.clone());
+            let (tile, samples) = (convert::tile(lease.tile), lease.samples[0]..lease.samples[1]);
+            tokio::task::spawn_blocking(move || pool.install(|| render_tile_cancellable(&scene, &settings, tile, samples, &cancel)))
+        };
+        tokio::pin!(render);
+        let grace = tokio::time::sleep(Duration::from_secs(365 * 24 * 3600));
+        tokio::pin!(grace);
+        let (mut lost, mut stopping, mut abandoned) = (None, false, false);
+        let joined = loop {
+            tokio::select! {
+                joined = &mut render => break joined,
+                why = &mut keep_alive, if lost.is_none() => {
+                    cancel.store(true, Ordering::Relaxed);
+                    lost = Some(why);
+                }
+                () = stop.wait(), if !stopping => {
+                    stopping = true;
+                    grace.as_mut().reset(tokio::time::Instant::now() + SHUTDOWN_GRACE);
+                    debug!(lease = id, "shutdown: the unit in hand gets {SHUTDOWN_GRACE:?} to finish");
+                }
+                () = &mut grace, if stopping && !abandoned => {
+                    abandoned = true;
+                    cancel.store(true, Ordering::Relaxed);
+                }
+            }
+        };
+        if let Some(why) = lost {
+            info!(lease = id, job = %lease.job_id, "lease lost while rendering: {why}; unit dropped");
+            return Unit::Canceled;
+        }
+        if abandoned {
+            info!(lease = id, "unit unfinished at the end of the shutdown grace: giving the lease back");
+            self.release(id).await;
+            return Unit::Abandoned;
+        }
+        let error = match joined {
+            Ok(Ok(Some(sums))) => {
+                debug!(lease = id, ms = started.elapsed().as_millis() as u64, "unit rendered");
+                let deadline = *deadline.lock().expect("deadline lock");
+                return Unit::Rendered { sums, deadline };
+            }
+            Ok(Ok(None)) => "the render stopped without being canceled".to_owned(),
+            Ok(Err(e)) => format!("cannot render: {e}"),
+            Err(e) => format!("the renderer failed: {e}"),
+        };
+        error!(lease = id, job = %lease.job_id, "{error}; giving the lease back");
+        self.release(id).await;
+        Unit::Failed
+    }
+
+    /// Heartbeats the lease every `every` and returns once it is lost, saying why. Transient
+    /// failures are retried at the same pace until the lease's deadline passes.
+    async fn keep_alive(&self, id: &str, every: Duration, deadline: &Mutex<Instant>) -> String {
+        let expired = || "its deadline passed without a successful heartbeat".to_owned();
+        loop {
+            tokio::time::sleep(every).await;
+            let due = *deadline.lock().expect("deadline lock");
+            let Some(left) = due.checked_duration_since(Instant::now()).filter(|d| !d.is_zero()) else {
+                return expired();
+            };
+            match tokio::time::timeout(left, self.api.heartbeat(id)).await {
+                Ok(Ok(HeartbeatAnswer::Extended(d))) => *deadline.lock().expect("deadline lock") = Instant::now() + d,
+                Ok(Ok(HeartbeatAnswer::Gone)) => return "the coordinator has dropped it (expired or job canceled)".to_owned(),
+                Ok(Err(e)) => warn!(lease = id, "heartbeat failed (will retry): {e}"),
+                Err(_) => return expired(),
+            }
+        }
+    }
+
+    /// The scene `id`, from the cache or downloaded and loaded (on the render pool).
+    async fn scene(&self, id: &str) -> Result<Arc<Scene>, String> {
+        let cached = self.scenes.lock().expect("scene cache lock").get(id);
+        match cached {
+            Cached::Scene(scene) => return Ok(scene),
+            Cached::Failed(e) => return Err(e),
+            Cached::Missing => {}
+        }
+        let bytes = self.download(id).await?;
+        let (pool, cache, id) = (self.pool.clone(), self.scenes.clone(), id.to_owned());
+        // The cache is filled by the loading thread itself, so a scene still lands in it when
+        // the lease that wanted it is lost meanwhile.
+        tokio::task::spawn_blocking(move || {
+            let started = Instant::now();
+            match pool.install(|| crate::scene::load_bytes(&bytes, None)) {
+                Ok(scene) => {
+                    let triangles = scene.mesh.len();
+                    let scene = Arc::new(scene);
+                    cache.lock().expect("scene cache lock").insert(&id, scene.clone());
+                    info!(scene = %id, bytes = bytes.len(), triangles, ms = started.elapsed().as_millis() as u64, "scene loaded");
+                    Ok(scene)
+                }
+                Err(e) => {
+                    let msg = format!("scene {id} does not load: {e}");
+                    cache.lock().expect("scene cache lock").insert_failure(&id, msg.clone());
+                    Err(msg)
+                }
+            }
+        })
+        .await
+        .map_err(|e| format!("the scene loader failed: {e}"))?
+    }
+
+    async fn download(&self, id: &str) -> Result<Vec<u8>, String> {
+        let mut backoff = RETRY;
+        let mut attempt = 0;
+        loop {
+            attempt += 1;
+            match self.api.scene(id).await {
+                Ok(bytes) => return Ok(bytes),
+                Err(CallError::Transient(e)) if attempt < SCENE_ATTEMPTS => {
+                    let delay = backoff.next_delay();
+                    warn!(scene = id, attempt, retry_in_ms = delay.as_millis() as u64, "{e}");
+                    tokio::time::sleep(delay).await;
+                }
+                Err(e) => return Err(format!("cannot download the scene ({e})")),
+            }
+        }
+    }
+
+    /// Gives a lease back (a few attempts; if they all fail the lease simply expires).
+    async fn release(&self, id: &str) {
+        let mut backoff = RETRY;
+        for attempt in 1..=RELEASE_ATTEMPTS {
+            match self.api.release(id).await {
+                Ok(()) => {
+                    debug!(lease = id, "lease given back");
+                    return;
+                }
+                Err(CallError::Transient(e)) if attempt < RELEASE_ATTEMPTS => {
+                    warn!(lease = id, attempt, "{e}");
+                    tokio::time::sleep(backoff.next_delay()).await;
+                }
+                Err(e) => {
+                    warn!(lease = id, "cannot give the lease back ({e}); it will expire");
+                    return;
+                }
+            }
+        }
+    }
+}
+
+/// A third of the coordinator's heartbeat period, and at least every second.
+fn heartbeat_every(reg: &Registration) -> Duration {
+    Duration::from_millis((reg.heartbeat_ms / 3).clamp(10, 1000))
+}
+
+fn check_unit(lease: &Lease) -> Result<crate::tracer::RenderSettings, String> {
+    let settings = render_settings(&lease.params)?;
+    let [s0, s1] = lease.samples;
+    if s1 <= s0 {
+        return Err(format!("empty sample range [{s0}, {s1})"));
+    }
+    let t = lease.tile;
+    if t.w == 0 || t.h == 0 || t.x0.checked_add(t.w).is_none_or(|x| x > settings.width) || t.y0.checked_add(t.h).is_none_or(|y| y > settings.height)
+    {
+        return Err(format!("tile {t:?} is empty or exceeds the {}×{} image", settings.width, settings.height));
+    }
+    Ok(settings)
+}
+
+/// Uploads one unit's sums, retrying transient failures until the lease's deadline passes (by
+/// then the coordinator has re-issued the unit, and a late result would be stale anyway).
+async fn upload(api: Arc<Api>, lease_id: String, body: Vec<u8>, deadline: Instant) -> Uploaded {
+    let id = lease_id.as_str();
+    let mut backoff = RETRY;
+    let mut failures = 0u32;
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let error = match tokio::time::timeout(left, api.upload(id, body.clone())).await {
+            Ok(Ok(UploadAnswer::Merged)) => {
+                debug!(lease = id, bytes = body.len(), "result merged");
+                return Uploaded::Merged;
+            }
+            Ok(Ok(UploadAnswer::Stale)) => {
+                info!(lease = id, "result was stale (the coordinator had given the unit up)");
+                return Uploaded::Stale;
+            }
+            Ok(Ok(UploadAnswer::Malformed(detail))) => {
+                error!(lease = id, "the coordinator refused the result as malformed: {detail}");
+                return Uploaded::Refused;
+            }
+            Ok(Err(CallError::Fatal(e))) => {
+                error!(lease = id, "{e}");
+                return Uploaded::Refused;
+            }
+            Ok(Err(CallError::Transient(e))) => e,
+            Err(_) => "no answer".to_owned(),
+        };
+        failures += 1;
+        let now = Instant::now();
+        if now >= deadline {
+            warn!(lease = id, attempts = failures, "result upload failed ({error}) and the lease's deadline has passed: giving up");
+            return Uploaded::Stale;
+        }
+        let delay = backoff.next_delay().min(deadline - now);
+        warn!(lease = id, attempt = failures, retry_in_ms = delay.as_millis() as u64, "{error}");
+        tokio::time::sleep(delay).await;
+    }
+}
+
+/// Waits for an upload (at most `limit`, then abandons it) and counts its outcome.
+async fn finish_upload(handle: JoinHandle<Uploaded>, limit: Option<Duration>, report: &mut WorkerReport) {
+    let joined = match limit {
+        None => handle.await,
+        Some(limit) => {
+            let abort = handle.abort_handle();
+            match tokio::time::timeout(limit, handle).await {
+                Ok(joined) => joined,
+                Err(_) => {
+                    abort.abort();
+                    warn!("a result upload was still unfinished at shutdown: abandoned");
+                    report.units_stale += 1;
+                    return;
+                }
+            }
+        }
+    };
+    match joined {
+        Ok(Uploaded::Merged) => report.units_done += 1,
+        Ok(Uploaded::Stale) => report.units_stale += 1,
+        Ok(Uploaded::Refused) => {}
+        Err(e) => error!("the upload task failed: {e}"),
+    }
+}

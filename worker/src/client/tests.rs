@@ -1,0 +1,426 @@
+//! The worker loop against a mock coordinator (axum on 127.0.0.1:0) that serves the bundled
+//! furnace scene, hands out a scripted sequence of answers and records what the worker sends.
+use super::*;
+use crate::tracer::render_tile;
+use axum::extract::{Path, Request, State};
+use axum::http::{HeaderMap, StatusCode, header};
+use axum::middleware::{self, Next};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{delete, get, post, put};
+use axum::{Json, Router};
+use std::collections::{HashSet, VecDeque};
+use tessera_proto::{Heartbeat, LeaseRequest, PartialSums, Problem, RenderParams, TileRect};
+use tokio::sync::oneshot;
+
+const TOKEN: &str = "s3cret";
+const SCENE_ID: &str = "furnace";
+
+fn furnace_path() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/furnace.gltf")
+}
+
+enum Step {
+    Lease(Box<Lease>),
+    NoWork,
+    /// Answer 404 and forget every worker, as a restarted coordinator would.
+    Forget,
+}
+
+#[derive(Default)]
+struct Log {
+    registrations: u32,
+    known: HashSet<String>,
+    script: VecDeque<Step>,
+    /// (when, worker id) of every lease request.
+    lease_requests: Vec<(Instant, String)>,
+    heartbeats: Vec<(Instant, String)>,
+    /// Leases whose heartbeat answers 409, and when that first happened.
+    kill_on_heartbeat: HashSet<String>,
+    killed_at: Option<Instant>,
+    /// Leases whose result answers 409.
+    stale_results: HashSet<String>,
+    /// (lease id, content type, body) of every result upload.
+    results: Vec<(String, String, Vec<u8>)>,
+    released: Vec<String>,
+    scene_downloads: u32,
+    unauthorized: u32,
+}
+
+struct Mock {
+    heartbeat_ms: u64,
+    scene: Vec<u8>,
+    log: Mutex<Log>,
+}
+
+impl Mock {
+    fn new(heartbeat_ms: u64, script: Vec<Step>) -> Arc<Mock> {
+        let log = Log { script: script.into(), ..Log::default() };
+        Arc::new(Mock { heartbeat_ms, scene: std::fs::read(furnace_path()).unwrap(), log: Mutex::new(log) })
+    }
+
+    fn log(&self) -> std::sync::MutexGuard<'_, Log> {
+        self.log.lock().unwrap()
+    }
+}
+
+fn problem(status: StatusCode, detail: &str) -> Response {
+    let p = Problem { kind: "about:blank".into(), title: status.to_string(), status: status.as_u16(), detail: detail.into(), field: None };
+    (status, [(header::CONTENT_TYPE, "application/problem+json")], serde_json::to_string(&p).unwrap()).into_response()
+}
+
+async fn auth(State(mock): State<Arc<Mock>>, req: Request, next: Next) -> Response {
+    let expected = format!("Bearer {TOKEN}");
+    if req.headers().get(header::AUTHORIZATION).and_then(|v| v.to_str().ok()) != Some(expected.as_str()) {
+        mock.log().unauthorized += 1;
+        return problem(StatusCode::UNAUTHORIZED, "missing or wrong token");
+    }
+    next.run(req).await
+}
+
+async fn register(State(mock): State<Arc<Mock>>, Json(hello): Json<WorkerHello>) -> Response {
+    assert!(hello.threads >= 1);
+    let mut log = mock.log();
+    log.registrations += 1;
+    let worker_id = format!("w{}", log.registrations);
+    log.known.insert(worker_id.clone());
+    (StatusCode::CREATED, Json(Registration { worker_id, heartbeat_ms: mock.heartbeat_ms })).into_response()
+}
+
+async fn lease(State(mock): State<Arc<Mock>>, Json(req): Json<LeaseRequest>) -> Response {
+    let mut log = mock.log();
+    log.lease_requests.push((Instant::now(), req.worker_id.clone()));
+    if !log.known.contains(&req.worker_id) {
+        return problem(StatusCode::NOT_FOUND, "unknown worker");
+    }
+    match log.script.pop_front() {
+        Some(Step::Lease(l)) => Json(*l).into_response(),
+        Some(Step::NoWork) | None => StatusCode::NO_CONTENT.into_response(),
+        Some(Step::Forget) => {
+            log.known.clear();
+            problem(StatusCode::NOT_FOUND, "unknown worker")
+        }
+    }
+}
+
+async fn heartbeat(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
+    let mut log = mock.log();
+    log.heartbeats.push((Instant::now(), id.clone()));
+    if log.kill_on_heartbeat.contains(&id) {
+        log.killed_at.get_or_insert_with(Instant::now);
+        return problem(StatusCode::CONFLICT, "lease expired or job canceled");
+    }
+    Json(Heartbeat { deadline_ms: 30_000 }).into_response()
+}
+
+async fn result(State(mock): State<Arc<Mock>>, Path(id): Path<String>, headers: HeaderMap, body: axum::body::Bytes) -> Response {
+    let mut log = mock.log();
+    let content_type = headers.get(header::CONTENT_TYPE).and_then(|v| v.to_str().ok()).unwrap_or("").to_owned();
+    log.results.push((id.clone(), content_type, body.to_vec()));
+    if log.stale_results.contains(&id) {
+        return problem(StatusCode::CONFLICT, "stale");
+    }
+    StatusCode::NO_CONTENT.into_response()
+}
+
+async fn release(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
+    mock.log().released.push(id);
+    StatusCode::NO_CONTENT.into_response()
+}
+
+async fn scene(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
+    if id != SCENE_ID {
+        return problem(StatusCode::NOT_FOUND, "no such scene");
+    }
+    mock.log().scene_downloads += 1;
+    mock.scene.clone().into_response()
+}
+
+async fn serve_on(mock: Arc<Mock>, listener: tokio::net::TcpListener) {
+    let app = Router::new()
+        .route("/v1/workers", post(register))
+        .route("/v1/leases", post(lease))
+        .route("/v1/leases/{id}/heartbeat", post(heartbeat))
+        .route("/v1/leases/{id}/result", put(result))
+        .route("/v1/leases/{id}", delete(release))
+        .route("/v1/scenes/{id}/data", get(scene))
+        .layer(middleware::from_fn_with_state(mock.clone(), auth))
+        .with_state(mock);
+    tokio::spawn(async move { axum::serve(listener, app).await.unwrap() });
+}
+
+/// Starts a mock; returns its base URL.
+async fn start(mock: &Arc<Mock>) -> String {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let base = format!("http://{}", listener.local_addr().unwrap());
+    serve_on(mock.clone(), listener).await;
+    base
+}
+
+fn config(base: &str) -> WorkerConfig {
+    WorkerConfig { coordinator: base.into(), token: Some(TOKEN.into()), threads: 2, name: "test-worker".into() }
+}
+
+/// A running worker and the switch that shuts it down.
+struct Running {
+    shutdown: Option<oneshot::Sender<()>>,
+    task: JoinHandle<anyhow::Result<WorkerReport>>,
+}
+
+fn spawn_worker(base: &str) -> Running {
+    let (tx, rx) = oneshot::channel::<()>();
+    let task = tokio::spawn(run(config(base), async move {
+        let _ = rx.await;
+    }));
+    Running { shutdown: Some(tx), task }
+}
+
+impl Running {
+    /// Requests shutdown; returns the report and how long `run` took to return.
+    async fn stop(mut self, limit: Duration) -> (WorkerReport, Duration) {
+        let t0 = Instant::now();
+        self.shutdown.take().unwrap().send(()).unwrap();
+        let report = tokio::time::timeout(limit, self.task).await.expect("run returns after shutdown").unwrap().unwrap();
+        (report, t0.elapsed())
+    }
+}
+
+async fn wait_until(what: &str, limit: Duration, mut done: impl FnMut() -> bool) {
+    let t0 = Instant::now();
+    while !done() {
+        assert!(t0.elapsed() < limit, "timed out waiting until {what}");
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+}
+
+fn params(width: u32, height: u32) -> RenderParams {
+    RenderParams {
+        width,
+        height,
+        seed: 11,
+        estimator: "mis".into(),
+        sampler: "sobol".into(),
+        camera: None,
+        max_depth: 64,
+        background: [0.0; 3],
+    }
+}
+
+fn unit(id: &str, params: RenderParams, tile: TileRect, samples: [u32; 2]) -> Step {
+    Step::Lease(Box::new(Lease {
+        lease_id: id.into(),
+        job_id: "job-1".into(),
+        scene_id: SCENE_ID.into(),
+        params,
+        tile,
+        samples,
+        deadline_ms: 30_000,
+    }))
+}
+
+/// A small unit of a 16×8 image (cheap to render).
+fn small(id: &str, x0: u32, samples: [u32; 2]) -> Step {
+    unit(id, params(16, 8), TileRect { x0, y0: 0, w: 8, h: 8 }, samples)
+}
+
+/// A unit far too long to finish during a test (a column of 1×20000 pixels × 2048 samples),
+/// whose rows are short so cancellation (checked between rows) is quick.
+fn long(id: &str) -> Step {
+    unit(id, params(1, 20_000), TileRect { x0: 0, y0: 0, w: 1, h: 20_000 }, [0, 2048])
+}
+
+/// Checks an uploaded body against `render_tile` of the same unit, bit for bit.
+fn assert_bit_exact(body: &[u8], step_params: &RenderParams) {
+    let got = PartialSums::decode(body).expect("the upload decodes");
+    let scene = crate::scene::load_path(&furnace_path()).unwrap();
+    let settings = render_settings(step_params).unwrap();
+    let expected = render_tile(&scene, &settings, convert::tile(got.tile), got.samples[0]..got.samples[1]).unwrap();
+    assert_eq!(body, to_wire(&expected, got.samples).encode().as_slice(), "upload for {:?} {:?}", got.tile, got.samples);
+}
+
+#[test]
+fn run_is_send() {
+    fn assert_send<T: Send>(_: &T) {}
+    let f = run(config("http://127.0.0.1:1"), std::future::pending());
+    assert_send(&f);
+}
+
+#[tokio::test]
+async fn refuses_a_bad_coordinator_address() {
+    for bad in ["not a url", "https://example.com", "ftp://example.com"] {
+        let mut c = config(bad);
+        c.coordinator = bad.into();
+        assert!(run(c, async {}).await.is_err(), "{bad}");
+    }
+}
+
+/// (1) All leases are rendered and uploaded bit-exactly; the scene is downloaded once; a 409
+/// on a result counts as stale; every request carries the token.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn renders_every_lease_bit_exactly_with_one_scene_download() {
+    let mock = Mock::new(3000, vec![small("a", 0, [0, 4]), small("b", 8, [0, 4]), small("c", 0, [4, 9]), small("d", 8, [4, 6])]);
+    mock.log().stale_results.insert("d".into());
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("four results arrive", Duration::from_secs(30), || mock.log().results.len() == 4).await;
+    let (report, _) = worker.stop(Duration::from_secs(10)).await;
+
+    assert_eq!(report, WorkerReport { units_done: 3, units_stale: 1, units_canceled: 0 });
+    let log = mock.log();
+    let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
+    assert_eq!(ids, ["a", "b", "c", "d"]);
+    for (_, content_type, body) in &log.results {
+        assert_eq!(content_type, tessera_proto::sums::CONTENT_TYPE);
+        assert_bit_exact(body, &params(16, 8));
+    }
+    assert_eq!(log.scene_downloads, 1, "the scene is cached across leases");
+    assert_eq!((log.registrations, log.unauthorized), (1, 0));
+    assert!(log.released.is_empty());
+}
+
+/// (2) A 409 on a heartbeat cancels a long unit: the render stops and the worker asks for more
+/// work well within a second, then renders the next unit normally.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_409_heartbeat_cancels_a_long_unit_quickly() {
+    // Heartbeats every 100 ms; the first one for "long" answers 409.
+    // The first unit warms the scene cache, so "long" is surely rendering at its first heartbeat.
+    let mock = Mock::new(300, vec![small("warm", 0, [0, 2]), long("long"), small("next", 8, [0, 2])]);
+    mock.log().kill_on_heartbeat.insert("long".into());
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("the next unit's result arrives", Duration::from_secs(30), || mock.log().results.len() == 2).await;
+    let (report, _) = worker.stop(Duration::from_secs(10)).await;
+
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 1 });
+    let log = mock.log();
+    let killed = log.killed_at.expect("a heartbeat was refused");
+    let next_request = log.lease_requests.iter().map(|r| r.0).find(|&t| t > killed).expect("a lease request after the 409");
+    let reaction = next_request - killed;
+    assert!(reaction < Duration::from_secs(1), "the render took {reaction:?} to stop after the 409");
+    let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
+    assert_eq!(ids, ["warm", "next"], "the canceled unit is never uploaded");
+    assert_bit_exact(&log.results[1].2, &params(16, 8));
+    assert_eq!(log.heartbeats.iter().filter(|h| h.1 == "long").count(), 1, "no heartbeats after the 409");
+    assert!(log.released.is_empty(), "a lost lease is dropped, not released");
+}
+
+/// (3) 204 (no work) is polled again with a backoff, and work is picked up when it comes.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn polls_through_204_and_picks_up_work() {
+    let mock = Mock::new(3000, vec![Step::NoWork, Step::NoWork, Step::NoWork, small("a", 0, [0, 2])]);
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("the result arrives", Duration::from_secs(30), || mock.log().results.len() == 1).await;
+    let (report, _) = worker.stop(Duration::from_secs(10)).await;
+
+    assert_eq!(report.units_done, 1);
+    let log = mock.log();
+    assert!(log.lease_requests.len() >= 4);
+    // Not a busy loop: the polls after a 204 are spaced by the (jittered, ≥ 25 ms) backoff.
+    for pair in log.lease_requests[..4].windows(2) {
+        assert!(pair[1].0 - pair[0].0 >= Duration::from_millis(20), "polled again after {:?}", pair[1].0 - pair[0].0);
+    }
+    assert_bit_exact(&log.results[0].2, &params(16, 8));
+}
+
+/// (4) The coordinator is down when the worker starts; the worker keeps retrying, then
+/// registers and works once it is up.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn waits_for_a_coordinator_that_is_down_at_start() {
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let base = format!("http://127.0.0.1:{port}");
+    let worker = spawn_worker(&base);
+    tokio::time::sleep(Duration::from_millis(800)).await; // several refused registrations
+
+    let mock = Mock::new(3000, vec![small("a", 0, [0, 2])]);
+    let listener = tokio::net::TcpListener::bind(("127.0.0.1", port)).await.expect("the port is still free");
+    serve_on(mock.clone(), listener).await;
+    wait_until("the result arrives", Duration::from_secs(30), || mock.log().results.len() == 1).await;
+    let (report, _) = worker.stop(Duration::from_secs(10)).await;
+
+    assert_eq!(report.units_done, 1);
+    assert_eq!(mock.log().registrations, 1);
+}
+
+/// (5) A 404 on /v1/leases (the coordinator forgot the worker) makes it register again.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn reregisters_after_a_404_on_lease() {
+    let mock = Mock::new(3000, vec![small("a", 0, [0, 2]), Step::Forget, small("b", 8, [0, 2])]);
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("both results arrive", Duration::from_secs(30), || mock.log().results.len() == 2).await;
+    let (report, _) = worker.stop(Duration::from_secs(10)).await;
+
+    assert_eq!(report.units_done, 2);
+    let log = mock.log();
+    assert_eq!(log.registrations, 2);
+    let workers: Vec<&str> = log.lease_requests.iter().map(|r| r.1.as_str()).collect();
+    assert_eq!(&workers[..3], ["w1", "w1", "w2"], "leases are requested as w2 after the 404");
+}
+
+/// (6) Shutdown while idle (204s) returns promptly, as does shutdown while the coordinator is
+/// unreachable and registration keeps failing.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shutdown_while_idle_returns_promptly() {
+    let mock = Mock::new(3000, vec![]);
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("the worker polls", Duration::from_secs(10), || mock.log().lease_requests.len() >= 3).await;
+    let (report, took) = worker.stop(Duration::from_secs(5)).await;
+    assert_eq!(report, WorkerReport::default());
+    assert!(took < Duration::from_secs(1), "idle shutdown took {took:?}");
+
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let worker = spawn_worker(&format!("http://127.0.0.1:{port}"));
+    tokio::time::sleep(Duration::from_millis(400)).await;
+    let (report, took) = worker.stop(Duration::from_secs(5)).await;
+    assert_eq!(report, WorkerReport::default());
+    assert!(took < Duration::from_secs(1), "shutdown while unregistered took {took:?}");
+}
+
+/// Shutdown during a unit that cannot finish within the grace: it is canceled and its lease
+/// given back (DELETE), and `run` returns soon after the grace.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shutdown_gives_back_an_unfinished_unit() {
+    let mock = Mock::new(300, vec![small("warm", 0, [0, 2]), long("long")]);
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("the long unit is rendering", Duration::from_secs(30), || mock.log().heartbeats.iter().any(|h| h.1 == "long")).await;
+    let (report, took) = worker.stop(Duration::from_secs(10)).await;
+
+    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 1 });
+    assert!(took < SHUTDOWN_GRACE + Duration::from_secs(2), "shutdown took {took:?}");
+    let log = mock.log();
+    assert_eq!(log.released, ["long"]);
+    assert_eq!(log.results.len(), 1, "only the warm-up unit is uploaded");
+}
+
+/// Leases that cannot be worked (unknown scene, bad parameters) are given back and the worker
+/// carries on with the next one.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn gives_back_leases_it_cannot_work() {
+    let Step::Lease(mut missing) = small("missing-scene", 0, [0, 2]) else { unreachable!() };
+    missing.scene_id = "no-such-scene".into();
+    let Step::Lease(mut bad) = small("bad-params", 0, [0, 2]) else { unreachable!() };
+    bad.params.estimator = "magic".into();
+    let mock = Mock::new(3000, vec![Step::Lease(missing), Step::Lease(bad), small("good", 8, [0, 2])]);
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("the good result arrives", Duration::from_secs(30), || mock.log().results.len() == 1).await;
+    let (report, _) = worker.stop(Duration::from_secs(10)).await;
+
+    assert_eq!(report.units_done, 1);
+    let log = mock.log();
+    assert_eq!(log.released, ["missing-scene", "bad-params"]);
+    assert_eq!(log.results[0].0, "good");
+}
+
+/// A wrong token is a configuration error: `run` fails instead of retrying forever.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_wrong_token_is_an_error() {
+    let mock = Mock::new(3000, vec![]);
+    let base = start(&mock).await;
+    let mut c = config(&base);
+    c.token = Some("wrong".into());
+    let e = tokio::time::timeout(Duration::from_secs(10), run(c, std::future::pending())).await.unwrap().unwrap_err();
+    assert!(e.to_string().contains("missing or wrong token"), "{e}");
+}

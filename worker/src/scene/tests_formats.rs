@@ -1,0 +1,105 @@
+//! File formats and glTF features: .glb, external buffers, textures, transforms, topologies.
+use super::tests::triangle_gltf;
+use super::*;
+use glam::{Vec2, Vec3};
+
+/// Wraps a JSON document and a binary chunk into a GLB container.
+fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+    let mut j = json.as_bytes().to_vec();
+    while j.len() % 4 != 0 {
+        j.push(b' ');
+    }
+    let mut b = bin.to_vec();
+    while b.len() % 4 != 0 {
+        b.push(0);
+    }
+    let total = 12 + 8 + j.len() + 8 + b.len();
+    let mut out = Vec::new();
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(j.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&j);
+    out.extend_from_slice(&(b.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&b);
+    out
+}
+
+fn f32_bytes(v: &[f32]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+/// A quad as a triangle strip (non-indexed), placed by a node with a mirroring scale.
+fn strip_json(buffer: &str, extra: &str) -> String {
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0,1]}}],
+        "nodes":[{{"mesh":0,"scale":[-1,1,1],"translation":[0,0,-2]}},{{"camera":0,"translation":[0,0,3]}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"TEXCOORD_0":1}},"mode":5{extra}}}]}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+                     {{"bufferView":1,"componentType":5126,"count":4,"type":"VEC2"}}],
+        "bufferViews":[{{"buffer":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":32}}],
+        "buffers":[{{"byteLength":80{buffer}}}],
+        "cameras":[{{"type":"perspective","perspective":{{"yfov":0.8,"znear":0.01}}}}]}}"#
+    )
+}
+
+fn strip_bin() -> Vec<u8> {
+    let mut b = f32_bytes(&[0., 0., 0., 1., 0., 0., 0., 1., 0., 1., 1., 0.]);
+    b.extend(f32_bytes(&[0., 1., 1., 1., 0., 0., 1., 0.]));
+    b
+}
+
+fn check_strip(scene: &crate::tracer::Scene) {
+    assert_eq!(scene.mesh.len(), 2, "a 4-vertex strip is two triangles");
+    for (i, tri) in scene.mesh.positions.iter().enumerate() {
+        assert!(tri.iter().all(|p| p.z == -2.0 && p.x <= 0.0), "mirrored and translated: {tri:?}");
+        // Winding was swapped to undo the mirror, so faces still point at the camera (+Z).
+        let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+        assert!(n.z > 0.0, "triangle {i} faces +Z");
+        assert_eq!(scene.mesh.normals[i][0], Vec3::Z);
+    }
+    assert!(scene.mesh.uvs[0][0].contains(&Vec2::new(0.0, 1.0)));
+}
+
+#[test]
+fn glb_with_a_binary_chunk_loads() {
+    let scene = load_bytes(&glb(&strip_json("", ""), &strip_bin()), None).unwrap();
+    check_strip(&scene);
+}
+
+#[test]
+fn gltf_with_an_external_buffer_loads_from_its_directory() {
+    let dir = std::env::temp_dir().join(format!("tessera-ext-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("quad data.bin"), strip_bin()).unwrap();
+    std::fs::write(dir.join("quad.gltf"), strip_json(r#","uri":"quad%20data.bin""#, "")).unwrap();
+    check_strip(&load_path(&dir.join("quad.gltf")).unwrap());
+    let err = load_bytes(strip_json(r#","uri":"quad%20data.bin""#, "").as_bytes(), None).unwrap_err();
+    assert!(err.0.contains("buffer 0") && err.0.contains("single file"), "{err}");
+}
+
+#[test]
+fn points_and_lines_are_refused() {
+    let err = load_bytes(&glb(&strip_json("", "").replace(r#""mode":5"#, r#""mode":1"#), &strip_bin()), None).unwrap_err();
+    assert!(err.0.contains("not a triangle mode"), "{err}");
+}
+
+#[test]
+fn base_colour_texture_is_decoded_from_srgb() {
+    let mut png = Vec::new();
+    let img = image::RgbaImage::from_pixel(2, 2, image::Rgba([188, 188, 188, 255]));
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
+    use base64::Engine;
+    let uri = format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png));
+    let material = r#","baseColorTexture":{"index":0}}"#;
+    let json = triangle_gltf(true, "")
+        .replace(r#""baseColorFactor":[0.5,0.5,0.5,1]}"#, &format!(r#""baseColorFactor":[0.5,0.5,0.5,1]{material}"#))
+        .replace(r#""cameras":"#, &format!(r#""textures":[{{"source":0}}],"images":[{{"uri":"{uri}"}}],"cameras":"#));
+    let scene = load_bytes(json.as_bytes(), None).unwrap();
+    assert_eq!(scene.textures.len(), 1);
+    let t = scene.textures[0].sample(Vec2::splat(0.5));
+    assert!((t.x - 0.5029).abs() < 2e-3, "sRGB 188 decodes to ≈0.503 linear, got {}", t.x);
+    assert_eq!(scene.materials[0].base_color_texture.unwrap().texture, 0);
+}
