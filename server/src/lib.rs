@@ -4,9 +4,16 @@
 //! - [`bundled`]: the scenes shipped in `scenes/`, compiled into the binary and available by name.
 //! - [`output`]: OpenEXR and PNG encoding of merged partial sums.
 //! - [`image`]: partial sums → image layers (mean, variance of the mean, sample counts).
-//! - [`local`]: rendering a job on this machine with the tracer directly.
+//! - [`scheduler`]: the clock-free state machine of jobs, units, leases and workers.
+//! - [`app`], [`routes`], [`state`], [`error`], [`scenes`]: the axum coordinator —
+//!   `app(state) -> Router`, handlers grouped by resource, problem+json errors, the scene store.
+pub mod app;
 pub mod bundled;
+pub mod client;
+pub mod error;
 pub mod image;
-pub mod local;
 pub mod output;
+pub mod routes;
+pub mod scenes;
 pub mod scheduler;
+pub mod state;

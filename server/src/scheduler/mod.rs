@@ -37,12 +37,12 @@ pub enum ResultError {
     Malformed(String),
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Accepted {
-    /// Merged (possibly buffered until earlier batches arrive).
-    Merged { job_finished: bool },
-    /// Valid but no longer needed (the tile reached its noise target meanwhile).
-    Unneeded,
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Accepted {
+    pub job_id: String,
+    /// False when the result was valid but no longer needed (its tile reached its noise target).
+    pub merged: bool,
+    pub job_finished: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -216,13 +216,14 @@ impl Scheduler {
             job.requeue(l.tile, l.batch);
             return Err(ResultError::Malformed(p));
         }
+        let job_id = job.cfg.id.clone();
         if !job.wants(l.tile, l.batch) {
-            return Ok(Accepted::Unneeded);
+            return Ok(Accepted { job_id, merged: false, job_finished: false });
         }
         job.accept(l.tile, l.batch, sums, now);
-        let finished = job.state.is_final();
+        let job_finished = job.state.is_final();
         self.revoke_unwanted(l.job_seq);
-        Ok(Accepted::Merged { job_finished: finished })
+        Ok(Accepted { job_id, merged: true, job_finished })
     }
 
     /// Cancels a job; its leases are revoked (their heartbeats answer "gone").

@@ -15,11 +15,7 @@ pub fn to_wire(sums: &TileSums, samples: [u32; 2]) -> PartialSums {
         samples,
         dropped: sums.dropped,
         max_weight: f64::from(sums.max_weight),
-        pixels: sums
-            .pixels
-            .iter()
-            .map(|p| WirePixel { sum: p.sum, sum_sq: p.sum_sq, sum_lum_sq: p.sum_lum_sq, count: p.count })
-            .collect(),
+        pixels: sums.pixels.iter().map(|p| WirePixel { sum: p.sum, sum_sq: p.sum_sq, sum_lum_sq: p.sum_lum_sq, count: p.count }).collect(),
     }
 }
 

@@ -105,7 +105,10 @@ pub async fn run(config: WorkerConfig, shutdown: impl Future<Output = ()> + Send
 
 /// How a unit ended.
 enum Unit {
-    Rendered { sums: TileSums, deadline: Instant },
+    Rendered {
+        sums: TileSums,
+        deadline: Instant,
+    },
     /// The lease was lost (409 on heartbeat, or its deadline passed): dropped.
     Canceled,
     /// Could not be worked (scene, parameters, renderer error): given back.
@@ -151,14 +154,9 @@ impl Worker {
         let mut uploading = None;
         let result = self.serve(&stop, &mut report, &mut uploading).await;
         if let Some(upload) = uploading.take() {
-            finish_upload(upload, Some(SHUTDOWN_UPLOAD_WAIT), &mut report).await;
+            finish_upload(upload, &stop, &mut report).await;
         }
-        info!(
-            units_done = report.units_done,
-            units_stale = report.units_stale,
-            units_canceled = report.units_canceled,
-            "worker stopped"
-        );
+        info!(units_done = report.units_done, units_stale = report.units_stale, units_canceled = report.units_canceled, "worker stopped");
         result.map(|()| report)
     }
 
@@ -198,7 +196,7 @@ impl Worker {
                     idle.reset();
                     let body = to_wire(&sums, lease.samples).encode();
                     if let Some(previous) = uploading.take() {
-                        finish_upload(previous, None, report).await;
+                        finish_upload(previous, stop, report).await;
                     }
                     *uploading = Some(tokio::spawn(upload(self.api.clone(), lease.lease_id.clone(), body, deadline)));
                 }
@@ -330,7 +328,10 @@ impl Worker {
     async fn keep_alive(&self, id: &str, every: Duration, deadline: &Mutex<Instant>) -> String {
         let expired = || "its deadline passed without a successful heartbeat".to_owned();
         loop {
-            tokio::time::sleep(every).await;
+            // Normally `every`; sooner if the lease was granted with a shorter deadline.
+            let due = *deadline.lock().expect("deadline lock");
+            let pause = every.min(due.saturating_duration_since(Instant::now()) / 2).max(Duration::from_millis(10));
+            tokio::time::sleep(pause).await;
             let due = *deadline.lock().expect("deadline lock");
             let Some(left) = due.checked_duration_since(Instant::now()).filter(|d| !d.is_zero()) else {
                 return expired();
@@ -428,7 +429,10 @@ fn check_unit(lease: &Lease) -> Result<crate::tracer::RenderSettings, String> {
         return Err(format!("empty sample range [{s0}, {s1})"));
     }
     let t = lease.tile;
-    if t.w == 0 || t.h == 0 || t.x0.checked_add(t.w).is_none_or(|x| x > settings.width) || t.y0.checked_add(t.h).is_none_or(|y| y > settings.height)
+    if t.w == 0
+        || t.h == 0
+        || t.x0.checked_add(t.w).is_none_or(|x| x > settings.width)
+        || t.y0.checked_add(t.h).is_none_or(|y| y > settings.height)
     {
         return Err(format!("tile {t:?} is empty or exceeds the {}×{} image", settings.width, settings.height));
     }
@@ -475,22 +479,20 @@ async fn upload(api: Arc<Api>, lease_id: String, body: Vec<u8>, deadline: Instan
     }
 }
 
-/// Waits for an upload (at most `limit`, then abandons it) and counts its outcome.
-async fn finish_upload(handle: JoinHandle<Uploaded>, limit: Option<Duration>, report: &mut WorkerReport) {
-    let joined = match limit {
-        None => handle.await,
-        Some(limit) => {
-            let abort = handle.abort_handle();
-            match tokio::time::timeout(limit, handle).await {
-                Ok(joined) => joined,
-                Err(_) => {
-                    abort.abort();
-                    warn!("a result upload was still unfinished at shutdown: abandoned");
-                    report.units_stale += 1;
-                    return;
-                }
+/// Waits for an upload and counts its outcome. Once shutdown is requested it gets at most
+/// [`SHUTDOWN_UPLOAD_WAIT`] more, then is abandoned.
+async fn finish_upload(mut handle: JoinHandle<Uploaded>, stop: &Stop, report: &mut WorkerReport) {
+    let joined = tokio::select! {
+        joined = &mut handle => joined,
+        () = stop.wait() => match tokio::time::timeout(SHUTDOWN_UPLOAD_WAIT, &mut handle).await {
+            Ok(joined) => joined,
+            Err(_) => {
+                handle.abort();
+                warn!("a result upload was still unfinished at shutdown: abandoned");
+                report.units_stale += 1;
+                return;
             }
-        }
+        },
     };
     match joined {
         Ok(Uploaded::Merged) => report.units_done += 1,

@@ -14,6 +14,7 @@ use tokio::sync::oneshot;
 
 const TOKEN: &str = "s3cret";
 const SCENE_ID: &str = "furnace";
+const SLOW_RESULT: Duration = Duration::from_millis(500);
 
 fn furnace_path() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/furnace.gltf")
@@ -39,8 +40,12 @@ struct Log {
     killed_at: Option<Instant>,
     /// Leases whose result answers 409.
     stale_results: HashSet<String>,
-    /// (lease id, content type, body) of every result upload.
-    results: Vec<(String, String, Vec<u8>)>,
+    /// How many result uploads to answer 503 before accepting them.
+    failing_results: u32,
+    /// Leases whose result upload takes half a second to answer.
+    slow_results: HashSet<String>,
+    /// (lease id, content type, body, when it arrived) of every result upload.
+    results: Vec<(String, String, Vec<u8>, Instant)>,
     released: Vec<String>,
     scene_downloads: u32,
     unauthorized: u32,
@@ -113,10 +118,23 @@ async fn heartbeat(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Res
 }
 
 async fn result(State(mock): State<Arc<Mock>>, Path(id): Path<String>, headers: HeaderMap, body: axum::body::Bytes) -> Response {
-    let mut log = mock.log();
     let content_type = headers.get(header::CONTENT_TYPE).and_then(|v| v.to_str().ok()).unwrap_or("").to_owned();
-    log.results.push((id.clone(), content_type, body.to_vec()));
-    if log.stale_results.contains(&id) {
+    let slow = {
+        let mut log = mock.log();
+        log.results.push((id.clone(), content_type, body.to_vec(), Instant::now()));
+        log.slow_results.contains(&id)
+    };
+    if slow {
+        tokio::time::sleep(SLOW_RESULT).await;
+    }
+    {
+        let mut log = mock.log();
+        if log.failing_results > 0 {
+            log.failing_results -= 1;
+            return problem(StatusCode::SERVICE_UNAVAILABLE, "try again");
+        }
+    }
+    if mock.log().stale_results.contains(&id) {
         return problem(StatusCode::CONFLICT, "stale");
     }
     StatusCode::NO_CONTENT.into_response()
@@ -222,10 +240,10 @@ fn small(id: &str, x0: u32, samples: [u32; 2]) -> Step {
     unit(id, params(16, 8), TileRect { x0, y0: 0, w: 8, h: 8 }, samples)
 }
 
-/// A unit far too long to finish during a test (a column of 1×20000 pixels × 2048 samples),
+/// A unit far too long to finish during a test (a column of 1×50000 pixels × 2048 samples, minutes of work),
 /// whose rows are short so cancellation (checked between rows) is quick.
 fn long(id: &str) -> Step {
-    unit(id, params(1, 20_000), TileRect { x0: 0, y0: 0, w: 1, h: 20_000 }, [0, 2048])
+    unit(id, params(1, 50_000), TileRect { x0: 0, y0: 0, w: 1, h: 50_000 }, [0, 2048])
 }
 
 /// Checks an uploaded body against `render_tile` of the same unit, bit for bit.
@@ -254,11 +272,13 @@ async fn refuses_a_bad_coordinator_address() {
 }
 
 /// (1) All leases are rendered and uploaded bit-exactly; the scene is downloaded once; a 409
-/// on a result counts as stale; every request carries the token.
+/// on a result counts as stale; every request carries the token. Uploads overlap the next
+/// lease, one at a time.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn renders_every_lease_bit_exactly_with_one_scene_download() {
     let mock = Mock::new(3000, vec![small("a", 0, [0, 4]), small("b", 8, [0, 4]), small("c", 0, [4, 9]), small("d", 8, [4, 6])]);
     mock.log().stale_results.insert("d".into());
+    mock.log().slow_results.insert("a".into());
     let base = start(&mock).await;
     let worker = spawn_worker(&base);
     wait_until("four results arrive", Duration::from_secs(30), || mock.log().results.len() == 4).await;
@@ -268,7 +288,12 @@ async fn renders_every_lease_bit_exactly_with_one_scene_download() {
     let log = mock.log();
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["a", "b", "c", "d"]);
-    for (_, content_type, body) in &log.results {
+    // "a"'s upload answers after 500 ms; meanwhile the worker already leased (and rendered) "b",
+    // but waited for "a"'s upload to end before uploading "b".
+    let a_sent = log.results[0].3;
+    assert!(log.lease_requests[1].0 < a_sent + SLOW_RESULT, "the next lease is requested during the upload");
+    assert!(log.results[1].3 >= a_sent + SLOW_RESULT, "one upload at a time");
+    for (_, content_type, body, _) in &log.results {
         assert_eq!(content_type, tessera_proto::sums::CONTENT_TYPE);
         assert_bit_exact(body, &params(16, 8));
     }
@@ -392,6 +417,41 @@ async fn shutdown_gives_back_an_unfinished_unit() {
     let log = mock.log();
     assert_eq!(log.released, ["long"]);
     assert_eq!(log.results.len(), 1, "only the warm-up unit is uploaded");
+}
+
+/// Shutdown during a unit that finishes within the grace: it is uploaded, not given back.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shutdown_lets_the_unit_in_hand_finish_within_the_grace() {
+    // 8×8 pixels × 4096 samples: a few hundred milliseconds, well within the 2 s grace.
+    let mock = Mock::new(300, vec![small("warm", 0, [0, 2]), small("in-hand", 8, [0, 4096])]);
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("the second unit is leased", Duration::from_secs(30), || mock.log().lease_requests.len() >= 2).await;
+    tokio::time::sleep(Duration::from_millis(50)).await; // the lease reaches the worker
+    let (report, _) = worker.stop(Duration::from_secs(15)).await;
+
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 0 });
+    let log = mock.log();
+    let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
+    assert_eq!(ids, ["warm", "in-hand"]);
+    assert!(log.released.is_empty());
+    assert_eq!(log.lease_requests.len(), 2, "no new lease after shutdown");
+}
+
+/// A result upload that fails with 503 is retried until it is merged.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn retries_a_failing_upload() {
+    let mock = Mock::new(3000, vec![small("a", 0, [0, 2])]);
+    mock.log().failing_results = 2;
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("the third attempt arrives", Duration::from_secs(30), || mock.log().results.len() == 3).await;
+    let (report, _) = worker.stop(Duration::from_secs(10)).await;
+
+    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 0 });
+    let log = mock.log();
+    assert!(log.results.iter().all(|r| r.0 == "a" && r.2 == log.results[0].2));
+    assert_bit_exact(&log.results[2].2, &params(16, 8));
 }
 
 /// Leases that cannot be worked (unknown scene, bad parameters) are given back and the worker

@@ -1,0 +1,73 @@
+//! Command-line interface: one file per subcommand.
+mod args;
+mod render;
+mod serve;
+mod submit;
+mod work;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "tessera", version, about = "Tessera: a distributed render farm for physically based images",
+    long_about = "Tessera path-traces glTF 2.0 scenes. `render` renders on this machine (a coordinator and a worker in one process); `serve` runs a coordinator; `work` runs a worker that pulls units from a coordinator; `submit` sends a job to a coordinator.\n\nLogs go to stderr; set RUST_LOG (e.g. RUST_LOG=debug) to change their level.")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene on this machine and write an OpenEXR image.
+    Render(render::RenderArgs),
+    /// Run a coordinator: accepts jobs over HTTP and leases units to workers.
+    Serve(serve::ServeArgs),
+    /// Run a worker: pulls units from a coordinator, renders them on all cores, returns sums.
+    Work(work::WorkArgs),
+    /// Submit a job to a coordinator, optionally wait for it and download the image.
+    Submit(submit::SubmitArgs),
+}
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let default_level = if matches!(cli.command, Command::Render(_) | Command::Submit(_)) { "warn" } else { "info" };
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| default_level.into()))
+        .with_writer(std::io::stderr)
+        .init();
+    let result = match cli.command {
+        Command::Render(a) => render::run(a),
+        Command::Serve(a) => serve::run(a),
+        Command::Work(a) => work::run(a),
+        Command::Submit(a) => submit::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Resolves on Ctrl-C or SIGTERM.
+pub async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        () = ctrl_c => {},
+        () = term => {},
+    }
+}

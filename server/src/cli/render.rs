@@ -1,0 +1,93 @@
+//! `tessera render`: a coordinator and a worker in one process, on a loopback port, through the
+//! same protocol as a farm — so the default path is the distributed path.
+use super::args::JobArgs;
+use super::submit::{download, follow, scene_ref};
+use anyhow::Context;
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use tessera_server::bundled;
+use tessera_server::client::Coordinator;
+use tessera_server::state::{AppState, Config};
+use tessera_worker::client::WorkerConfig;
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// A bundled scene name (cornell-box, furnace, glossy, phong, punctual) or a .gltf/.glb file.
+    pub scene: String,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    #[command(flatten)]
+    pub job: JobArgs,
+    /// Render threads (default: all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Output OpenEXR file.
+    #[arg(short, long, default_value = "out.exr")]
+    pub output: PathBuf,
+    /// Also write an sRGB PNG preview (clamped, exposure 1) here.
+    #[arg(long)]
+    pub preview: Option<PathBuf>,
+}
+
+pub fn run(a: RenderArgs) -> anyhow::Result<()> {
+    if !Path::new(&a.scene).is_file() && bundled::get(&a.scene).is_none() {
+        anyhow::bail!("{:?} is neither a file nor a bundled scene ({})", a.scene, bundled::names().join(", "));
+    }
+    let data = std::env::temp_dir().join(format!("tessera-render-{}", std::process::id()));
+    let rt = tokio::runtime::Runtime::new()?;
+    let result = rt.block_on(render_via_local_farm(&a, &data));
+    let _ = std::fs::remove_dir_all(&data);
+    result
+}
+
+async fn render_via_local_farm(a: &RenderArgs, data: &Path) -> anyhow::Result<()> {
+    let state = AppState::new(Config::new(data.to_path_buf())).context("starting the coordinator")?;
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let url = format!("http://{}", listener.local_addr()?);
+    let (stop_server, server_stopped) = tokio::sync::oneshot::channel::<()>();
+    let server = tokio::spawn(tessera_server::app::run(listener, state, async {
+        let _ = server_stopped.await;
+    }));
+    let (stop_worker, worker_stopped) = tokio::sync::oneshot::channel::<()>();
+    let config = WorkerConfig { coordinator: url.clone(), token: None, threads: a.threads, name: "local".into() };
+    let worker = tokio::spawn(tessera_worker::client::run(config, async {
+        let _ = worker_stopped.await;
+    }));
+    let outcome = submit_and_fetch(a, &url).await;
+    let _ = stop_worker.send(());
+    let _ = worker.await;
+    let _ = stop_server.send(());
+    let _ = server.await;
+    outcome
+}
+
+async fn submit_and_fetch(a: &RenderArgs, url: &str) -> anyhow::Result<()> {
+    let c = Coordinator::new(url, None);
+    let start = Instant::now();
+    let scene = scene_ref(&c, &a.scene).await?;
+    let job = c.submit(&a.job.request(scene, Some(a.spp))).await?;
+    let job = follow(&c, &job.id).await?;
+    download(&c, &job, &a.output).await?;
+    if let Some(p) = &a.preview {
+        let png = c.bytes(&format!("/v1/jobs/{}/preview.png", job.id)).await?;
+        std::fs::write(p, png).with_context(|| format!("writing {}", p.display()))?;
+    }
+    let secs = start.elapsed().as_secs_f64();
+    let samples = job.progress.samples_done * a.job.width as f64 * a.job.height as f64;
+    println!(
+        "{}: {}x{} at {:.0} spp in {:.2} s ({:.0} samples/s); estimated relMSE {:.3e}; dropped {} non-finite samples; max sample weight {:.3}; effects: {}",
+        a.output.display(),
+        a.job.width,
+        a.job.height,
+        job.progress.samples_done,
+        secs,
+        samples / secs,
+        job.noise.unwrap_or(0.0),
+        job.dropped_samples,
+        job.max_sample_weight,
+        job.effects.join(", ")
+    );
+    Ok(())
+}

@@ -1,0 +1,43 @@
+//! `tessera serve`: the coordinator.
+use clap::Args;
+use std::path::PathBuf;
+use tessera_server::state::{AppState, Config};
+
+#[derive(Args)]
+pub struct ServeArgs {
+    /// Address to listen on (port 0 picks a free port; the chosen address is printed).
+    #[arg(long, env = "TESSERA_LISTEN", default_value = "127.0.0.1:7878")]
+    pub listen: String,
+    /// Directory for scenes and finished images.
+    #[arg(long, env = "TESSERA_DATA", default_value = "tessera-data")]
+    pub data: PathBuf,
+    /// Seconds a lease lives without a heartbeat before its unit is given to another worker.
+    #[arg(long, default_value_t = 10.0)]
+    pub lease_timeout: f64,
+    /// Largest accepted scene upload, in MiB.
+    #[arg(long, default_value_t = 256)]
+    pub max_scene_mib: usize,
+    /// Most triangles in an accepted scene.
+    #[arg(long, default_value_t = 5_000_000)]
+    pub max_triangles: u64,
+}
+
+pub fn run(a: ServeArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(a.lease_timeout > 0.0 && a.lease_timeout.is_finite(), "--lease-timeout must be > 0");
+    let mut config = Config::new(a.data.clone());
+    config.lease_timeout_ms = (a.lease_timeout * 1000.0) as u64;
+    config.max_scene_bytes = a.max_scene_mib << 20;
+    config.max_triangles = a.max_triangles;
+    let rt = tokio::runtime::Runtime::new()?;
+    rt.block_on(async {
+        let state = AppState::new(config)?;
+        let listener = tokio::net::TcpListener::bind(&a.listen).await?;
+        let addr = listener.local_addr()?;
+        // The first line of stdout is the address, for scripts and tests that asked for port 0.
+        println!("listening on http://{addr}");
+        tracing::info!(%addr, data = %a.data.display(), "coordinator listening");
+        tessera_server::app::run(listener, state, super::shutdown_signal()).await?;
+        tracing::info!("coordinator stopped");
+        Ok(())
+    })
+}

@@ -1,0 +1,80 @@
+//! `tessera submit`: send a job to a coordinator; `--wait` to follow it and download the image.
+use super::args::JobArgs;
+use anyhow::Context;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use tessera_proto::{Job, JobState};
+use tessera_server::client::{Coordinator, progress_line};
+
+#[derive(Args)]
+pub struct SubmitArgs {
+    /// A bundled scene name, a scene id (sha256) already on the coordinator, or a .gltf/.glb file to upload.
+    pub scene: String,
+    /// The coordinator's URL.
+    #[arg(long, env = "TESSERA_SERVER", default_value = "http://127.0.0.1:7878")]
+    pub server: String,
+    /// Client bearer token.
+    #[arg(long, env = "TESSERA_CLIENT_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
+    /// Samples per pixel (at least one of --spp, --noise-target, --time-limit).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    #[command(flatten)]
+    pub job: JobArgs,
+    /// Wait for the job to end, showing progress.
+    #[arg(long)]
+    pub wait: bool,
+    /// Download the final EXR here (implies --wait).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+}
+
+pub fn run(a: SubmitArgs) -> anyhow::Result<()> {
+    let rt = tokio::runtime::Runtime::new()?;
+    rt.block_on(async {
+        let c = Coordinator::new(&a.server, a.token.clone());
+        let scene = scene_ref(&c, &a.scene).await?;
+        let job = c.submit(&a.job.request(scene, a.spp)).await?;
+        println!("{}", job.id);
+        if a.wait || a.output.is_some() {
+            let job = follow(&c, &job.id).await?;
+            if let Some(out) = &a.output {
+                download(&c, &job, out).await?;
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Uploads a scene file, or passes a name/id through.
+pub async fn scene_ref(c: &Coordinator, scene: &str) -> anyhow::Result<String> {
+    let path = Path::new(scene);
+    if !path.is_file() {
+        return Ok(scene.to_string());
+    }
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let binary = bytes.starts_with(b"glTF");
+    Ok(c.upload_scene(bytes, binary).await?.id)
+}
+
+/// Follows a job to its end with a progress bar; errors if it failed or was canceled.
+pub async fn follow(c: &Coordinator, id: &str) -> anyhow::Result<Job> {
+    let bar = ProgressBar::new(1000).with_style(ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {msg}").expect("valid template"));
+    let job = c
+        .wait(id, |j| {
+            bar.set_position((j.progress.fraction * 1000.0) as u64);
+            bar.set_message(progress_line(j));
+        })
+        .await?;
+    bar.finish_and_clear();
+    match job.state {
+        JobState::Done => Ok(job),
+        s => anyhow::bail!("job {id} ended {s:?}: {}", job.message.clone().unwrap_or_default()),
+    }
+}
+
+pub async fn download(c: &Coordinator, job: &Job, out: &Path) -> anyhow::Result<()> {
+    let bytes = c.bytes(&format!("/v1/jobs/{}/image.exr", job.id)).await?;
+    std::fs::write(out, bytes).with_context(|| format!("writing {}", out.display()))
+}

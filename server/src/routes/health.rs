@@ -1,0 +1,39 @@
+//! `/healthz` and `/metrics` (Prometheus text format).
+use crate::state::AppState;
+use axum::extract::State;
+use axum::http::header;
+use axum::response::IntoResponse;
+use std::fmt::Write;
+use std::sync::atomic::Ordering;
+use tessera_proto::JobState;
+
+/// Liveness: answers 200 "ok" while the coordinator runs.
+#[utoipa::path(get, path = "/healthz", tag = "health", responses((status = 200, description = "alive")))]
+pub async fn healthz() -> &'static str {
+    "ok"
+}
+
+/// Counters and gauges in Prometheus text format.
+#[utoipa::path(get, path = "/metrics", tag = "health", responses((status = 200, content_type = "text/plain")))]
+pub async fn metrics(State(st): State<AppState>) -> impl IntoResponse {
+    let mut out = String::new();
+    let c = &st.counters;
+    let counters = [
+        ("tessera_units_merged_total", "Results merged", c.units_merged.load(Ordering::Relaxed)),
+        ("tessera_results_stale_total", "Late or duplicate results ignored", c.results_stale.load(Ordering::Relaxed)),
+        ("tessera_results_malformed_total", "Results refused as malformed", c.results_malformed.load(Ordering::Relaxed)),
+        ("tessera_leases_granted_total", "Units leased to workers", c.leases_granted.load(Ordering::Relaxed)),
+        ("tessera_merge_seconds_total", "Time spent merging results (s, as ns)", c.merge_nanos.load(Ordering::Relaxed)),
+    ];
+    for (name, help, v) in counters {
+        let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} counter\n{name} {v}");
+    }
+    let sched = st.scheduler.lock().expect("lock");
+    let _ = writeln!(out, "# HELP tessera_jobs Jobs by state\n# TYPE tessera_jobs gauge");
+    for state in [JobState::Queued, JobState::Running, JobState::Done, JobState::Failed, JobState::Canceled] {
+        let n = sched.jobs_newest_first().filter(|j| j.state == state).count();
+        let _ = writeln!(out, "tessera_jobs{{state=\"{}\"}} {n}", format!("{state:?}").to_lowercase());
+    }
+    let _ = writeln!(out, "# HELP tessera_workers Registered workers\n# TYPE tessera_workers gauge\ntessera_workers {}", sched.workers().count());
+    ([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], out)
+}

@@ -1,0 +1,107 @@
+//! `/v1/jobs`: submit, list, read, cancel, and the images of a job.
+use super::validate::job_config;
+use crate::error::{AppError, Json};
+use crate::state::{AppState, encode_job_exr, job_status};
+use crate::{image, output};
+use axum::extract::{Path, Query, State};
+use axum::http::{StatusCode, header};
+use axum::response::IntoResponse;
+use serde::Deserialize;
+use tessera_proto::{Job, JobList, JobRequest, Problem};
+
+/// Submit a job. At least one stop condition (spp, noise_target, time_limit_s).
+#[utoipa::path(post, path = "/v1/jobs", tag = "jobs", request_body = JobRequest,
+    responses((status = 202, body = Job, headers(("Location" = String))), (status = 400, body = Problem)))]
+pub async fn create(State(st): State<AppState>, Json(req): Json<JobRequest>) -> Result<impl IntoResponse, AppError> {
+    let scene = st.scenes.resolve(&req.scene).ok_or_else(|| AppError::field("scene", format!("no scene {:?} (upload it to /v1/scenes or use a bundled name)", req.scene)))?;
+    let id = st.new_job_id();
+    let created = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default().as_millis() as u64;
+    let cfg = job_config(id.clone(), req, &scene, created)?;
+    let job = {
+        let mut s = st.scheduler.lock().expect("lock");
+        s.submit(cfg);
+        job_status(s.job(&id).expect("just submitted"), st.now(), 0)
+    };
+    st.notify(&id);
+    tracing::info!(job = %id, scene = %scene.id, "job accepted");
+    Ok((StatusCode::ACCEPTED, [(header::LOCATION, format!("/v1/jobs/{id}"))], axum::Json(job)))
+}
+
+#[derive(Deserialize, utoipa::IntoParams)]
+pub struct ListQuery {
+    /// Page size (default 50, at most 500).
+    limit: Option<usize>,
+    /// Only jobs older than this job id (from a previous page's `next`).
+    before: Option<String>,
+}
+
+/// Jobs, newest first, paginated.
+#[utoipa::path(get, path = "/v1/jobs", tag = "jobs", params(ListQuery), responses((status = 200, body = JobList)))]
+pub async fn list(State(st): State<AppState>, Query(q): Query<ListQuery>) -> axum::Json<JobList> {
+    let limit = q.limit.unwrap_or(50).clamp(1, 500);
+    let s = st.scheduler.lock().expect("lock");
+    let now = st.now();
+    let mut iter = s.jobs_newest_first().skip_while(|j| q.before.as_ref().is_some_and(|b| &j.cfg.id != b));
+    if q.before.is_some() {
+        iter.next();
+    }
+    let page: Vec<Job> = iter.take(limit + 1).map(|j| job_status(j, now, s.workers_on(&j.cfg.id))).collect();
+    let next = (page.len() > limit).then(|| page[limit - 1].id.clone());
+    axum::Json(JobList { jobs: page.into_iter().take(limit).collect(), next })
+}
+
+/// A job's state, progress, noise and history.
+#[utoipa::path(get, path = "/v1/jobs/{id}", tag = "jobs", params(("id" = String, Path)), responses((status = 200, body = Job), (status = 404, body = Problem)))]
+pub async fn get(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<Job>, AppError> {
+    status_of(&st, &id).map(axum::Json)
+}
+
+pub fn status_of(st: &AppState, id: &str) -> Result<Job, AppError> {
+    let s = st.scheduler.lock().expect("lock");
+    let job = s.job(id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
+    Ok(job_status(job, st.now(), s.workers_on(id)))
+}
+
+/// Cancel a job; its workers are told within one heartbeat.
+#[utoipa::path(delete, path = "/v1/jobs/{id}", tag = "jobs", params(("id" = String, Path)), responses((status = 200, body = Job), (status = 404, body = Problem)))]
+pub async fn cancel(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<Job>, AppError> {
+    st.scheduler.lock().expect("lock").cancel(&id, st.now()).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
+    st.notify(&id);
+    get(State(st), Path(id)).await
+}
+
+/// The job's OpenEXR image: final when done, else the current merge.
+#[utoipa::path(get, path = "/v1/jobs/{id}/image.exr", tag = "jobs", params(("id" = String, Path)),
+    responses((status = 200, content_type = "image/x-exr"), (status = 404, body = Problem)))]
+pub async fn image_exr(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
+    if let Some(bytes) = st.images.lock().expect("lock").get(&id).cloned() {
+        return Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes.as_ref().clone()));
+    }
+    let st2 = st.clone();
+    let bytes = tokio::task::spawn_blocking(move || {
+        let s = st2.scheduler.lock().expect("lock");
+        let job = s.job(&id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
+        encode_job_exr(job).map_err(AppError::internal)
+    })
+    .await
+    .map_err(AppError::internal)??;
+    Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes))
+}
+
+/// An sRGB PNG preview of the current merge.
+#[utoipa::path(get, path = "/v1/jobs/{id}/preview.png", tag = "jobs", params(("id" = String, Path)),
+    responses((status = 200, content_type = "image/png"), (status = 404, body = Problem)))]
+pub async fn preview_png(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
+    let (w, h, frame) = {
+        let s = st.scheduler.lock().expect("lock");
+        let job = s.job(&id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
+        (job.cfg.params.width, job.cfg.params.height, job.frame())
+    };
+    let png = tokio::task::spawn_blocking(move || {
+        let layers = image::layers(w, h, &frame);
+        output::encode_png_preview(layers.width, layers.height, &layers.rgb)
+    })
+    .await
+    .map_err(AppError::internal)?;
+    Ok(([(header::CONTENT_TYPE, "image/png"), (header::CACHE_CONTROL, "no-store")], png))
+}

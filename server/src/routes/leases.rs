@@ -1,0 +1,115 @@
+//! The worker protocol: register, lease, heartbeat, result, release (see tessera_proto::lease).
+use crate::error::{AppError, Json};
+use crate::scheduler::{Accepted, ResultError};
+use crate::state::AppState;
+use axum::body::Bytes;
+use axum::extract::{Path, State};
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use std::sync::atomic::Ordering;
+use tessera_proto::{Heartbeat, Lease, LeaseRequest, PartialSums, Problem, Registration, WorkerHello, WorkerInfo};
+
+/// Register a worker; returns its id.
+#[utoipa::path(post, path = "/v1/workers", tag = "workers", request_body = WorkerHello, responses((status = 201, body = Registration), (status = 400, body = Problem)))]
+pub async fn register(State(st): State<AppState>, Json(hello): Json<WorkerHello>) -> Result<impl IntoResponse, AppError> {
+    if hello.name.len() > 256 || hello.threads == 0 || hello.threads > 4096 {
+        return Err(AppError::field("threads", "name must be at most 256 bytes and threads in 1..=4096"));
+    }
+    let id = st.scheduler.lock().expect("lock").register_worker(&hello.name, hello.threads, st.now());
+    tracing::info!(worker = %id, name = %hello.name, threads = hello.threads, "worker registered");
+    let heartbeat_ms = (st.config.lease_timeout_ms / 3).max(100);
+    Ok((StatusCode::CREATED, axum::Json(Registration { worker_id: id, heartbeat_ms })))
+}
+
+/// Connected workers.
+#[utoipa::path(get, path = "/v1/workers", tag = "workers", responses((status = 200, body = Vec<WorkerInfo>)))]
+pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<WorkerInfo>> {
+    let now = st.now();
+    let s = st.scheduler.lock().expect("lock");
+    axum::Json(
+        s.workers()
+            .map(|(id, w)| WorkerInfo {
+                id: id.clone(),
+                name: w.name.clone(),
+                threads: w.threads,
+                current: w.current.clone(),
+                units_done: w.units_done,
+                failures: w.failures,
+                last_seen_ms_ago: now.saturating_sub(w.last_seen),
+            })
+            .collect(),
+    )
+}
+
+/// Take the next unit of work: 200 with a lease, 204 when there is none, 404 for unknown workers.
+#[utoipa::path(post, path = "/v1/leases", tag = "workers", request_body = LeaseRequest,
+    responses((status = 200, body = Lease), (status = 204, description = "no work now"), (status = 404, body = Problem)))]
+pub async fn lease(State(st): State<AppState>, Json(req): Json<LeaseRequest>) -> Result<Response, AppError> {
+    let grant = st.scheduler.lock().expect("lock").lease(&req.worker_id, st.now()).map_err(AppError::not_found)?;
+    let Some(g) = grant else { return Ok(StatusCode::NO_CONTENT.into_response()) };
+    st.counters.leases_granted.fetch_add(1, Ordering::Relaxed);
+    st.notify(&g.job_id);
+    let lease = Lease { lease_id: g.lease_id, job_id: g.job_id, scene_id: g.scene_id, params: g.params, tile: g.tile, samples: g.samples, deadline_ms: g.deadline_ms };
+    Ok(axum::Json(lease).into_response())
+}
+
+/// Extend a lease; 409 when it is gone (expired or its job ended): stop rendering it.
+#[utoipa::path(post, path = "/v1/leases/{id}/heartbeat", tag = "workers", params(("id" = String, Path)),
+    responses((status = 200, body = Heartbeat), (status = 409, body = Problem)))]
+pub async fn heartbeat(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<Heartbeat>, AppError> {
+    let deadline = st.scheduler.lock().expect("lock").heartbeat(&id, st.now());
+    deadline
+        .map(|deadline_ms| axum::Json(Heartbeat { deadline_ms }))
+        .ok_or_else(|| AppError::new(StatusCode::CONFLICT, format!("lease {id} is no longer active")))
+}
+
+/// Give a lease back unrendered.
+#[utoipa::path(delete, path = "/v1/leases/{id}", tag = "workers", params(("id" = String, Path)),
+    responses((status = 204), (status = 404, body = Problem)))]
+pub async fn release(State(st): State<AppState>, Path(id): Path<String>) -> Result<StatusCode, AppError> {
+    if st.scheduler.lock().expect("lock").release(&id) {
+        Ok(StatusCode::NO_CONTENT)
+    } else {
+        Err(AppError::not_found(format!("lease {id} is not active")))
+    }
+}
+
+/// Return a unit's partial sums (binary, `application/x-tessera-sums`).
+#[utoipa::path(put, path = "/v1/leases/{id}/result", tag = "workers", params(("id" = String, Path)),
+    request_body(content = Vec<u8>, content_type = "application/x-tessera-sums"),
+    responses((status = 204, description = "merged"), (status = 409, body = Problem), (status = 422, body = Problem)))]
+pub async fn result(State(st): State<AppState>, Path(id): Path<String>, body: Bytes) -> Result<StatusCode, AppError> {
+    let sums = match PartialSums::decode(&body) {
+        Ok(s) => s,
+        Err(e) => {
+            st.counters.results_malformed.fetch_add(1, Ordering::Relaxed);
+            // A malformed body cannot be merged: the unit goes back to the queue.
+            st.scheduler.lock().expect("lock").release(&id);
+            return Err(AppError::new(StatusCode::UNPROCESSABLE_ENTITY, format!("malformed result: {e}")));
+        }
+    };
+    let t0 = std::time::Instant::now();
+    let outcome = st.scheduler.lock().expect("lock").complete(&id, sums, st.now());
+    st.counters.merge_nanos.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
+    match outcome {
+        Ok(Accepted { job_id, merged, job_finished }) => {
+            if merged {
+                st.counters.units_merged.fetch_add(1, Ordering::Relaxed);
+                st.notify(&job_id);
+            }
+            if job_finished {
+                let st2 = st.clone();
+                tokio::task::spawn_blocking(move || st2.finalize(&job_id)).await.map_err(AppError::internal)?;
+            }
+            Ok(StatusCode::NO_CONTENT)
+        }
+        Err(ResultError::Stale(m)) => {
+            st.counters.results_stale.fetch_add(1, Ordering::Relaxed);
+            Err(AppError::new(StatusCode::CONFLICT, m))
+        }
+        Err(ResultError::Malformed(m)) => {
+            st.counters.results_malformed.fetch_add(1, Ordering::Relaxed);
+            Err(AppError::new(StatusCode::UNPROCESSABLE_ENTITY, m))
+        }
+    }
+}

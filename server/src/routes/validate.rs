@@ -1,0 +1,88 @@
+//! `JobRequest` → `JobConfig`: every setting checked, every default made explicit.
+use crate::error::AppError;
+use crate::scenes::SceneMeta;
+use crate::scheduler::JobConfig;
+use tessera_proto::{JobRequest, RenderParams};
+use tessera_worker::tracer::Estimator;
+use tessera_worker::tracer::sampler::SamplerKind;
+
+pub const MAX_SIDE: u32 = 16384;
+pub const MAX_PIXELS: u64 = 1 << 26;
+pub const MAX_SPP: u32 = 1 << 20;
+/// Cap on samples per pixel for jobs stopped only by noise or time.
+pub const OPEN_ENDED_SPP: u32 = 1 << 16;
+
+pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_ms: u64) -> Result<JobConfig, AppError> {
+    let in_range = |field: &str, v: u32, lo: u32, hi: u32| {
+        if v < lo || v > hi { Err(AppError::field(field, format!("{field} must be in {lo}..={hi} (got {v})"))) } else { Ok(v) }
+    };
+    let width = in_range("width", req.width, 1, MAX_SIDE)?;
+    let height = in_range("height", req.height, 1, MAX_SIDE)?;
+    if width as u64 * height as u64 > MAX_PIXELS {
+        return Err(AppError::field("width", format!("width × height must be at most {MAX_PIXELS} pixels")));
+    }
+    if req.spp.is_none() && req.noise_target.is_none() && req.time_limit_s.is_none() {
+        return Err(AppError::field("spp", "give at least one stop condition: spp, noise_target or time_limit_s"));
+    }
+    let spp = match req.spp {
+        Some(s) => in_range("spp", s, 1, MAX_SPP)?,
+        None => OPEN_ENDED_SPP,
+    };
+    if let Some(n) = req.noise_target {
+        if !(n.is_finite() && n > 0.0) {
+            return Err(AppError::field("noise_target", "noise_target must be a finite number > 0"));
+        }
+    }
+    let time_limit_ms = match req.time_limit_s {
+        Some(t) if t.is_finite() && t > 0.0 && t <= 1e7 => Some((t * 1000.0).ceil() as u64),
+        Some(_) => return Err(AppError::field("time_limit_s", "time_limit_s must be in (0, 1e7] seconds")),
+        None => None,
+    };
+    let estimator: Estimator = req.estimator.as_deref().unwrap_or("mis").parse().map_err(|e: String| AppError::field("estimator", e))?;
+    let sampler: SamplerKind =
+        req.sampler.as_deref().unwrap_or("sobol").parse().map_err(|e: tessera_worker::tracer::sampler::UnknownSamplerKind| AppError::field("sampler", e.to_string()))?;
+    let tile_size = in_range("tile_size", req.tile_size.unwrap_or(64), 8, 1024)?;
+    let batch_spp = in_range("batch_spp", req.batch_spp.unwrap_or(16), 1, 4096)?;
+    let max_depth = in_range("max_depth", req.max_depth.unwrap_or(1024), 1, 65536)?;
+    let background = req.background.unwrap_or([0.0; 3]);
+    if background.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
+        return Err(AppError::field("background", "background must be three finite numbers ≥ 0"));
+    }
+    if let Some(cam) = &req.camera {
+        if !scene.cameras.contains(cam) {
+            return Err(AppError::field("camera", format!("no camera named {cam:?} (the scene has {:?})", scene.cameras)));
+        }
+    } else if scene.cameras.is_empty() {
+        return Err(AppError::field("camera", "the scene has no perspective camera"));
+    }
+    let mut effects = scene.effects.clone();
+    if background.iter().any(|c| *c > 0.0) {
+        effects.push("background".into());
+        effects.sort();
+    }
+    let params = RenderParams {
+        width,
+        height,
+        seed: req.seed.unwrap_or(0),
+        estimator: estimator.name().into(),
+        sampler: sampler.name().into(),
+        camera: req.camera.clone(),
+        max_depth,
+        background,
+    };
+    Ok(JobConfig {
+        id,
+        scene_id: scene.id.clone(),
+        params,
+        spp,
+        spp_given: req.spp.is_some(),
+        noise_target: req.noise_target,
+        time_limit_ms,
+        tile_size,
+        batch_spp,
+        priority: req.priority.unwrap_or(0),
+        effects,
+        request: req,
+        created_unix_ms,
+    })
+}

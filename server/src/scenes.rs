@@ -1,0 +1,86 @@
+//! Content-addressed scene store: `DATA/scenes/<sha256>`, plus the bundled scenes by name.
+//!
+//! A scene is validated when stored (parsed, no BVH) and described once; workers fetch the bytes
+//! by hash and build their own BVH.
+use crate::bundled;
+use sha2::{Digest, Sha256};
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::RwLock;
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SceneMeta {
+    pub id: String,
+    pub triangles: u64,
+    pub effects: Vec<String>,
+    pub cameras: Vec<String>,
+}
+
+pub struct SceneStore {
+    dir: PathBuf,
+    meta: RwLock<HashMap<String, SceneMeta>>,
+    names: HashMap<String, String>,
+    max_triangles: u64,
+}
+
+pub fn scene_id(bytes: &[u8]) -> String {
+    hex::encode(Sha256::digest(bytes))
+}
+
+impl SceneStore {
+    /// Opens the store and registers the bundled scenes.
+    pub fn open(dir: PathBuf, max_triangles: u64) -> std::io::Result<SceneStore> {
+        std::fs::create_dir_all(&dir)?;
+        let mut store = SceneStore { dir, meta: RwLock::new(HashMap::new()), names: HashMap::new(), max_triangles };
+        for (name, bytes) in bundled::SCENES {
+            let meta = store.put(bytes).map_err(std::io::Error::other)?;
+            store.names.insert(name.to_string(), meta.id);
+        }
+        Ok(store)
+    }
+
+    /// Validates and stores a scene; idempotent.
+    pub fn put(&self, bytes: &[u8]) -> Result<SceneMeta, String> {
+        let id = scene_id(bytes);
+        if let Some(m) = self.meta.read().expect("lock").get(&id) {
+            return Ok(m.clone());
+        }
+        let parsed = tessera_worker::scene::parse(bytes, None).map_err(|e| e.0)?;
+        let triangles = parsed.triangles() as u64;
+        if triangles > self.max_triangles {
+            return Err(format!("the scene has {triangles} triangles; this coordinator accepts at most {}", self.max_triangles));
+        }
+        if triangles == 0 {
+            return Err("the scene has no triangles".into());
+        }
+        let meta = SceneMeta { id: id.clone(), triangles, effects: parsed.effects(), cameras: parsed.cameras() };
+        write_atomically(&self.dir.join(&id), bytes).map_err(|e| format!("storing the scene failed: {e}"))?;
+        self.meta.write().expect("lock").insert(id, meta.clone());
+        Ok(meta)
+    }
+
+    /// A scene id or a bundled name → the scene's metadata.
+    pub fn resolve(&self, id_or_name: &str) -> Option<SceneMeta> {
+        let id = self.names.get(id_or_name).map(String::as_str).unwrap_or(id_or_name);
+        self.meta.read().expect("lock").get(id).cloned()
+    }
+
+    pub fn bytes(&self, id: &str) -> Option<Vec<u8>> {
+        if !self.meta.read().expect("lock").contains_key(id) {
+            return None; // also keeps request paths away from the filesystem
+        }
+        std::fs::read(self.dir.join(id)).ok()
+    }
+}
+
+/// Temp file, fsync, rename, fsync the directory: readers see the old file or the whole new one.
+pub fn write_atomically(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let dir = path.parent().unwrap_or(std::path::Path::new("."));
+    let tmp = dir.join(format!(".{}.tmp", path.file_name().and_then(|n| n.to_str()).unwrap_or("file")));
+    let mut f = std::fs::File::create(&tmp)?;
+    f.write_all(bytes)?;
+    f.sync_all()?;
+    std::fs::rename(&tmp, path)?;
+    std::fs::File::open(dir)?.sync_all()
+}

@@ -1,0 +1,195 @@
+//! Shared coordinator state: the scheduler behind a mutex, the scene store, finished images.
+use crate::image;
+use crate::output::{self, MetaValue};
+use crate::scenes::{SceneStore, write_atomically};
+use crate::scheduler::{JobRun, Scheduler};
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+use tessera_proto::{Job, JobState, Progress};
+use tokio::sync::broadcast;
+
+#[derive(Clone, Debug)]
+pub struct Config {
+    pub data_dir: PathBuf,
+    pub lease_timeout_ms: u64,
+    pub max_scene_bytes: usize,
+    pub max_triangles: u64,
+}
+
+impl Config {
+    pub fn new(data_dir: PathBuf) -> Config {
+        Config { data_dir, lease_timeout_ms: 10_000, max_scene_bytes: 256 << 20, max_triangles: 5_000_000 }
+    }
+}
+
+#[derive(Default)]
+pub struct Counters {
+    pub units_merged: AtomicU64,
+    pub results_stale: AtomicU64,
+    pub results_malformed: AtomicU64,
+    pub leases_granted: AtomicU64,
+    pub merge_nanos: AtomicU64,
+}
+
+pub struct Shared {
+    pub config: Config,
+    pub scheduler: Mutex<Scheduler>,
+    pub scenes: SceneStore,
+    /// Final EXRs of finished jobs.
+    pub images: Mutex<HashMap<String, Arc<Vec<u8>>>>,
+    /// Ids of jobs whose status changed (for SSE).
+    pub events: broadcast::Sender<String>,
+    pub counters: Counters,
+    start: Instant,
+    next_job: AtomicU64,
+}
+
+#[derive(Clone)]
+pub struct AppState(pub Arc<Shared>);
+
+impl std::ops::Deref for AppState {
+    type Target = Shared;
+    fn deref(&self) -> &Shared {
+        &self.0
+    }
+}
+
+impl AppState {
+    pub fn new(config: Config) -> std::io::Result<AppState> {
+        std::fs::create_dir_all(config.data_dir.join("jobs"))?;
+        let scenes = SceneStore::open(config.data_dir.join("scenes"), config.max_triangles)?;
+        let scheduler = Mutex::new(Scheduler::new(config.lease_timeout_ms));
+        let (events, _) = broadcast::channel(1024);
+        Ok(AppState(Arc::new(Shared {
+            config,
+            scheduler,
+            scenes,
+            images: Mutex::new(HashMap::new()),
+            events,
+            counters: Counters::default(),
+            start: Instant::now(),
+            next_job: AtomicU64::new(0),
+        })))
+    }
+}
+
+impl Shared {
+    /// Milliseconds on the coordinator's monotonic clock.
+    pub fn now(&self) -> u64 {
+        self.start.elapsed().as_millis() as u64
+    }
+
+    pub fn new_job_id(&self) -> String {
+        let n = self.next_job.fetch_add(1, Ordering::Relaxed) + 1;
+        let t = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default().as_millis();
+        format!("j{t:x}-{n}")
+    }
+
+    pub fn notify(&self, job_id: &str) {
+        let _ = self.events.send(job_id.to_string());
+    }
+
+    /// Writes a finished job's EXR (memory and `DATA/jobs/<id>.exr`).
+    pub fn finalize(&self, job_id: &str) {
+        let bytes = {
+            let sched = self.scheduler.lock().expect("lock");
+            let Some(job) = sched.job(job_id) else { return };
+            if job.state != JobState::Done {
+                return;
+            }
+            match encode_job_exr(job) {
+                Ok(b) => b,
+                Err(e) => {
+                    tracing::error!(job = job_id, "encoding the final image failed: {e:#}");
+                    return;
+                }
+            }
+        };
+        if let Err(e) = write_atomically(&self.config.data_dir.join("jobs").join(format!("{job_id}.exr")), &bytes) {
+            tracing::error!(job = job_id, "writing the final image failed: {e}");
+        }
+        self.images.lock().expect("lock").insert(job_id.to_string(), Arc::new(bytes));
+        tracing::info!(job = job_id, "job done");
+    }
+}
+
+pub fn encode_job_exr(job: &JobRun) -> anyhow::Result<Vec<u8>> {
+    let p = &job.cfg.params;
+    let frame = job.frame();
+    let layers = image::layers(p.width, p.height, &frame);
+    let meta = vec![
+        ("software".to_string(), MetaValue::Text(format!("tessera {}", env!("CARGO_PKG_VERSION")))),
+        ("tessera.job".into(), MetaValue::Text(job.cfg.id.clone())),
+        ("tessera.scene".into(), MetaValue::Text(job.cfg.scene_id.clone())),
+        ("tessera.spp".into(), MetaValue::Double(job.samples_done())),
+        ("tessera.seed".into(), MetaValue::Text(p.seed.to_string())),
+        ("tessera.estimator".into(), MetaValue::Text(p.estimator.clone())),
+        ("tessera.sampler".into(), MetaValue::Text(p.sampler.clone())),
+        ("tessera.effects".into(), MetaValue::Text(job.cfg.effects.join(","))),
+        ("tessera.dropped_samples".into(), MetaValue::Text(job.dropped.to_string())),
+        ("tessera.max_sample_weight".into(), MetaValue::Double(job.max_weight)),
+    ];
+    output::encode_exr(&layers, &meta)
+}
+
+/// The client's view of a job.
+pub fn job_status(job: &JobRun, now: u64, workers: u32) -> Job {
+    let elapsed_ms = job.elapsed_ms(now);
+    let elapsed_s = elapsed_ms as f64 / 1000.0;
+    let done = job.samples_done();
+    let target = job.cfg.spp as f64;
+    let noise = job.noise();
+    let mut fraction = (done / target).min(1.0);
+    if let (Some(t), Some(n)) = (job.cfg.noise_target, noise) {
+        fraction = fraction.max((t / n).min(1.0));
+    }
+    if let Some(limit) = job.cfg.time_limit_ms {
+        fraction = fraction.max((elapsed_ms as f64 / limit as f64).min(1.0));
+    }
+    if job.state == JobState::Done {
+        fraction = 1.0;
+    }
+    let rate = if elapsed_s > 0.0 { done / elapsed_s } else { 0.0 };
+    let eta_s = eta(job, done, rate, noise, elapsed_s);
+    Job {
+        id: job.cfg.id.clone(),
+        state: job.state,
+        scene: job.cfg.scene_id.clone(),
+        request: job.cfg.request.clone(),
+        progress: Progress { samples_done: done, samples_target: target, fraction },
+        noise,
+        elapsed_s,
+        eta_s,
+        samples_per_s: rate * job.pixel_count() as f64,
+        workers,
+        effects: job.cfg.effects.clone(),
+        history: job.history.iter().map(|r| [r[0], r[1], if r[2].is_finite() { r[2] } else { 0.0 }]).collect(),
+        dropped_samples: job.dropped,
+        max_sample_weight: job.max_weight,
+        message: job.message.clone(),
+        created_unix_ms: job.cfg.created_unix_ms,
+    }
+}
+
+/// Seconds left: to the spp target at the current rate, to the noise target assuming noise ∝ 1/spp,
+/// and to the time limit — whichever comes first.
+fn eta(job: &JobRun, done: f64, rate: f64, noise: Option<f64>, elapsed_s: f64) -> Option<f64> {
+    if job.state.is_final() {
+        return Some(0.0);
+    }
+    if rate <= 0.0 {
+        return None;
+    }
+    let mut samples_needed = job.cfg.spp as f64;
+    if let (Some(t), Some(n)) = (job.cfg.noise_target, noise) {
+        samples_needed = samples_needed.min(done * n / t);
+    }
+    let mut eta = ((samples_needed - done) / rate).max(0.0);
+    if let Some(limit) = job.cfg.time_limit_ms {
+        eta = eta.min((limit as f64 / 1000.0 - elapsed_s).max(0.0));
+    }
+    Some(eta)
+}
