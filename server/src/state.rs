@@ -100,7 +100,7 @@ impl Shared {
             if job.state != JobState::Done {
                 return;
             }
-            match encode_job_exr(job) {
+            match encode_job_exr(job, self.now()) {
                 Ok(b) => b,
                 Err(e) => {
                     tracing::error!(job = job_id, "encoding the final image failed: {e:#}");
@@ -116,7 +116,7 @@ impl Shared {
     }
 }
 
-pub fn encode_job_exr(job: &JobRun) -> anyhow::Result<Vec<u8>> {
+pub fn encode_job_exr(job: &JobRun, now: u64) -> anyhow::Result<Vec<u8>> {
     let p = &job.cfg.params;
     let frame = job.frame();
     let layers = image::layers(p.width, p.height, &frame);
@@ -131,6 +131,8 @@ pub fn encode_job_exr(job: &JobRun) -> anyhow::Result<Vec<u8>> {
         ("tessera.effects".into(), MetaValue::Text(job.cfg.effects.join(","))),
         ("tessera.dropped_samples".into(), MetaValue::Text(job.dropped.to_string())),
         ("tessera.max_sample_weight".into(), MetaValue::Double(job.max_weight)),
+        ("tessera.render_time_s".into(), MetaValue::Double(job.elapsed_ms(now) as f64 / 1000.0)),
+        ("tessera.noise".into(), MetaValue::Double(job.noise().unwrap_or(0.0))),
     ];
     output::encode_exr(&layers, &meta)
 }

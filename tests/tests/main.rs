@@ -1,5 +1,6 @@
 //! End-to-end tests: one binary, one module per capability.
 mod estimators;
+mod farm;
 mod harness;
 mod mitsuba;
 mod render_cli;

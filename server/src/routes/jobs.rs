@@ -81,7 +81,7 @@ pub async fn image_exr(State(st): State<AppState>, Path(id): Path<String>) -> Re
     let bytes = tokio::task::spawn_blocking(move || {
         let s = st2.scheduler.lock().expect("lock");
         let job = s.job(&id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
-        encode_job_exr(job).map_err(AppError::internal)
+        encode_job_exr(job, st2.now()).map_err(AppError::internal)
     })
     .await
     .map_err(AppError::internal)??;

@@ -1,0 +1,198 @@
+//! The distributed path end to end: a real coordinator process, real worker processes.
+use crate::harness::{temp_dir, tessera_bin};
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+use tessera_proto::{Job, JobRequest, JobState};
+use tessera_server::client::Coordinator;
+use tessera_server::output::decode_exr;
+
+/// A child process killed when dropped.
+struct Proc(Child);
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+struct Farm {
+    url: String,
+    _coordinator: Proc,
+    workers: Vec<Proc>,
+}
+
+impl Farm {
+    fn start(name: &str, workers: usize) -> Farm {
+        let data = temp_dir(name);
+        let mut child = Command::new(tessera_bin())
+            .args(["serve", "--listen", "127.0.0.1:0", "--lease-timeout", "5", "--data"])
+            .arg(&data)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start coordinator");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let url = line.trim().strip_prefix("listening on ").expect("address line").to_string();
+        let mut farm = Farm { url, _coordinator: Proc(child), workers: Vec::new() };
+        for _ in 0..workers {
+            farm.add_worker();
+        }
+        farm
+    }
+
+    fn add_worker(&mut self) {
+        let child = Command::new(tessera_bin())
+            .args(["work", "--threads", "1", "--coordinator", &self.url])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start worker");
+        self.workers.push(Proc(child));
+    }
+
+    fn client(&self) -> Coordinator {
+        Coordinator::new(&self.url, None)
+    }
+}
+
+fn request(spp: Option<u32>) -> JobRequest {
+    JobRequest {
+        scene: "cornell-box".into(),
+        width: 64,
+        height: 48,
+        spp,
+        seed: Some(42),
+        tile_size: Some(32),
+        batch_spp: Some(8),
+        ..JobRequest::default()
+    }
+}
+
+fn rt() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_multi_thread().enable_all().build().unwrap()
+}
+
+async fn run_job(farm: &Farm, req: &JobRequest) -> (Job, Vec<u8>) {
+    let c = farm.client();
+    let job = c.submit(req).await.expect("submit");
+    let job = c.wait(&job.id, |_| {}).await.unwrap();
+    assert_eq!(job.state, JobState::Done, "{job:?}");
+    let exr = c.bytes(&format!("/v1/jobs/{}/image.exr", job.id)).await.unwrap();
+    (job, exr)
+}
+
+fn pixels(exr: &[u8]) -> (Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<f32>) {
+    let (img, _) = decode_exr(exr).unwrap();
+    (img.rgb, img.variance, img.samples)
+}
+
+#[test]
+fn one_worker_three_workers_and_tessera_render_give_the_same_bits() {
+    let rt = rt();
+    let req = request(Some(32));
+    let one = rt.block_on(run_job(&Farm::start("one", 1), &req)).1;
+    let three = rt.block_on(run_job(&Farm::start("three", 3), &req)).1;
+    let dir = temp_dir("local");
+    let local = dir.join("local.exr");
+    let out = Command::new(tessera_bin())
+        .args(["render", "cornell-box", "--spp", "32", "--width", "64", "--height", "48", "--seed", "42", "--tile-size", "32", "--batch-spp", "8", "-o"])
+        .arg(&local)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let local = std::fs::read(&local).unwrap();
+    assert!(pixels(&one) == pixels(&three), "1 worker vs 3 workers");
+    assert!(pixels(&one) == pixels(&local), "farm vs tessera render");
+    assert!(pixels(&one).2.iter().all(|&s| s == 32.0));
+}
+
+#[test]
+fn progress_is_monotone_noise_falls_and_events_and_preview_work() {
+    let rt = rt();
+    let farm = Farm::start("progress", 2);
+    rt.block_on(async {
+        let c = farm.client();
+        let job = c.submit(&request(Some(128))).await.unwrap();
+        let mut seen = Vec::new();
+        let events = sse_events(&farm.url, &job.id);
+        let done = c.wait(&job.id, |j| seen.push(j.progress.samples_done)).await.unwrap();
+        assert!(seen.windows(2).all(|w| w[0] <= w[1]), "monotone: {seen:?}");
+        assert_eq!(done.progress.samples_done, 128.0);
+        assert_eq!(done.progress.fraction, 1.0);
+        let h = &done.history;
+        assert!(h.len() >= 4, "history has rows: {h:?}");
+        // Noise falls roughly as 1/samples: from 8 to 128 spp (16×) it should drop 8× to 32×.
+        let first = h.iter().find(|r| r[1] >= 8.0 && r[2] > 0.0).unwrap();
+        let last = h.last().unwrap();
+        let ratio = first[2] / last[2];
+        let expected = last[1] / first[1];
+        assert!(ratio > expected / 2.0 && ratio < expected * 2.0, "noise ratio {ratio} for {expected}× samples");
+        let events = events.await.unwrap();
+        assert!(events.iter().filter(|e| e.starts_with("event: progress")).count() >= 2, "{events:?}");
+        assert!(events.last().unwrap().starts_with("event: end"));
+        let png = c.bytes(&format!("/v1/jobs/{}/preview.png", job.id)).await.unwrap();
+        let img = image::load_from_memory(&png).expect("preview decodes");
+        assert_eq!((img.width(), img.height()), (64, 48));
+    });
+}
+
+/// Collects the SSE stream of a job until it ends.
+fn sse_events(url: &str, id: &str) -> tokio::task::JoinHandle<Vec<String>> {
+    let url = format!("{url}/v1/jobs/{id}/events");
+    tokio::spawn(async move {
+        let mut resp = reqwest::get(&url).await.unwrap();
+        let mut text = String::new();
+        while let Some(chunk) = resp.chunk().await.unwrap() {
+            text.push_str(&String::from_utf8_lossy(&chunk));
+        }
+        text.split("\n\n").filter(|e| !e.trim().is_empty() && !e.starts_with(':')).map(str::to_string).collect()
+    })
+}
+
+#[test]
+fn noise_target_and_time_limit_jobs_stop_on_their_own() {
+    let rt = rt();
+    let farm = Farm::start("stops", 2);
+    rt.block_on(async {
+        let target = 0.02;
+        let (job, _) = run_job(&farm, &JobRequest { noise_target: Some(target), ..request(None) }).await;
+        assert!(job.noise.unwrap() <= target, "noise {:?} ≤ {target}", job.noise);
+        assert!(job.progress.samples_done < 65536.0);
+        let c = farm.client();
+        let limit = 1.5;
+        let job = c.submit(&JobRequest { time_limit_s: Some(limit), width: 128, height: 128, ..request(None) }).await.unwrap();
+        let job = c.wait(&job.id, |_| {}).await.unwrap();
+        assert_eq!(job.message.as_deref(), Some("time limit reached"));
+        // One unit of 32×32×8 samples takes well under a second here.
+        assert!(job.elapsed_s >= limit && job.elapsed_s < limit + 1.0, "elapsed {}", job.elapsed_s);
+    });
+}
+
+#[test]
+fn cancel_frees_workers_within_a_second() {
+    let rt = rt();
+    let farm = Farm::start("cancel", 2);
+    rt.block_on(async {
+        let c = farm.client();
+        let job = c.submit(&JobRequest { width: 256, height: 256, batch_spp: Some(256), ..request(Some(4096)) }).await.unwrap();
+        let start = Instant::now();
+        while c.job(&job.id).await.unwrap().workers < 2 {
+            assert!(start.elapsed() < Duration::from_secs(20), "workers never took the job");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        let http = reqwest::Client::new();
+        let resp = http.delete(format!("{}/v1/jobs/{}", farm.url, job.id)).send().await.unwrap();
+        assert!(resp.status().is_success());
+        // A second job must get both workers within a second.
+        let canceled_at = Instant::now();
+        let next = c.submit(&request(Some(8))).await.unwrap();
+        let done = c.wait(&next.id, |_| {}).await.unwrap();
+        assert_eq!(done.state, JobState::Done);
+        assert!(canceled_at.elapsed() < Duration::from_secs(2), "the next job waited {:?}", canceled_at.elapsed());
+        let workers: Vec<tessera_proto::WorkerInfo> = http.get(format!("{}/v1/workers", farm.url)).send().await.unwrap().json().await.unwrap();
+        assert_eq!(workers.len(), 2);
+        assert_eq!(c.job(&job.id).await.unwrap().state, JobState::Canceled);
+    });
+}
