@@ -124,7 +124,7 @@ impl PartialSums {
         let mut counted = 0u64;
         for i in 0..n {
             let o = HEADER_LEN + i * PIXEL_LEN;
-            let f: Vec<f64> = (0..7).map(|k| f64_at(o + 8 * k)).collect();
+            let f: [f64; 7] = std::array::from_fn(|k| f64_at(o + 8 * k));
             let count = u64_at(o + 56);
             if f.iter().any(|v| !v.is_finite()) || f[3..].iter().any(|v| *v < 0.0) {
                 return err(format!("pixel {i}: sums must be finite and squares ≥ 0"));

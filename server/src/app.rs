@@ -1,6 +1,9 @@
 //! The coordinator's HTTP application: `app(state) -> Router` and `run(listener, state, shutdown)`.
 use crate::routes::{events, health, jobs, leases, scenes};
+use crate::error::AppError;
 use crate::state::AppState;
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
 use axum::Router;
 use axum::extract::DefaultBodyLimit;
 use std::time::Duration;
@@ -43,14 +46,47 @@ pub fn app(state: AppState) -> Router {
             let api = api.clone();
             async move { axum::Json(api.as_ref().clone()) }
         }))
+        .fallback(|uri: axum::http::Uri| async move { AppError::not_found(format!("no route {uri}")) })
+        .method_not_allowed_fallback(|| async { AppError::new(StatusCode::METHOD_NOT_ALLOWED, "this route does not take that method") })
         .layer(DefaultBodyLimit::max(JSON_LIMIT))
+        .layer(axum::middleware::map_response(as_problem))
         .with_state(state)
 }
 
-/// Serves until `shutdown` resolves; a background task expires leases and time limits.
+/// Turns every error response that is not already problem+json (extractor rejections such as a
+/// bad path or query, 413 from body limits) into one, keeping its status and message.
+async fn as_problem(resp: Response) -> Response {
+    let status = resp.status();
+    let is_problem = resp.headers().get(header::CONTENT_TYPE).is_some_and(|v| v.as_bytes().starts_with(b"application/problem+json"));
+    if !(status.is_client_error() || status.is_server_error()) || is_problem {
+        return resp;
+    }
+    let body = axum::body::to_bytes(resp.into_body(), 64 << 10).await.unwrap_or_default();
+    let text = String::from_utf8_lossy(&body).trim().to_string();
+    let detail = if text.is_empty() { status.canonical_reason().unwrap_or("error").to_string() } else { text };
+    AppError::new(status, detail).into_response()
+}
+
+/// How long open connections (e.g. SSE streams) may linger after shutdown is requested.
+const SHUTDOWN_GRACE: Duration = Duration::from_secs(3);
+
+/// Serves until `shutdown` resolves, then lets requests in flight finish (at most
+/// `SHUTDOWN_GRACE`); a background task expires leases and time limits meanwhile.
 pub async fn run(listener: tokio::net::TcpListener, state: AppState, shutdown: impl std::future::Future<Output = ()> + Send + 'static) -> std::io::Result<()> {
     let ticker = tokio::spawn(tick_forever(state.clone()));
-    let result = axum::serve(listener, app(state)).with_graceful_shutdown(shutdown).await;
+    let (stopping_tx, mut stopping) = tokio::sync::watch::channel(false);
+    let signal = async move {
+        shutdown.await;
+        let _ = stopping_tx.send(true);
+    };
+    let serve = axum::serve(listener, app(state)).with_graceful_shutdown(signal);
+    let result = tokio::select! {
+        r = serve => r,
+        _ = async {
+            let _ = stopping.wait_for(|s| *s).await;
+            tokio::time::sleep(SHUTDOWN_GRACE).await;
+        } => Ok(()),
+    };
     ticker.abort();
     result
 }
@@ -59,12 +95,7 @@ async fn tick_forever(state: AppState) {
     let mut interval = tokio::time::interval(Duration::from_millis(200));
     loop {
         interval.tick().await;
-        let finished = state.scheduler.lock().expect("lock").tick(state.now());
-        for id in finished {
-            let st = state.clone();
-            let id2 = id.clone();
-            let _ = tokio::task::spawn_blocking(move || st.finalize(&id2)).await;
-            state.notify(&id);
-        }
+        state.scheduler.lock().expect("lock").tick(state.now());
+        state.0.settle().await;
     }
 }

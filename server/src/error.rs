@@ -75,7 +75,7 @@ fn field_in(detail: &str) -> Option<String> {
     if let Some(rest) = detail.split("field `").nth(1) {
         return rest.split('`').next().map(str::to_string);
     }
-    let body = detail.rsplit("body: ").next().unwrap_or(detail);
+    let body = detail.split("target type: ").nth(1).unwrap_or(detail);
     let (path, _) = body.split_once(": ")?;
     (!path.contains(' ') && !path.is_empty()).then(|| path.to_string())
 }

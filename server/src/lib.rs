@@ -4,6 +4,8 @@
 //! - [`bundled`]: the scenes shipped in `scenes/`, compiled into the binary and available by name.
 //! - [`output`]: OpenEXR and PNG encoding of merged partial sums.
 //! - [`image`]: partial sums → image layers (mean, variance of the mean, sample counts).
+//! - [`local`]: a coordinator and a worker in one process (`tessera render`, benchmarks).
+//! - [`client`]: a small client of the coordinator's API.
 //! - [`scheduler`]: the clock-free state machine of jobs, units, leases and workers.
 //! - [`app`], [`routes`], [`state`], [`error`], [`scenes`]: the axum coordinator —
 //!   `app(state) -> Router`, handlers grouped by resource, problem+json errors, the scene store.
@@ -12,6 +14,7 @@ pub mod bundled;
 pub mod client;
 pub mod error;
 pub mod image;
+pub mod local;
 pub mod output;
 pub mod routes;
 pub mod scenes;

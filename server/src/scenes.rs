@@ -32,11 +32,27 @@ impl SceneStore {
     pub fn open(dir: PathBuf, max_triangles: u64) -> std::io::Result<SceneStore> {
         std::fs::create_dir_all(&dir)?;
         let mut store = SceneStore { dir, meta: RwLock::new(HashMap::new()), names: HashMap::new(), max_triangles };
+        store.index_stored();
         for (name, bytes) in bundled::SCENES {
             let meta = store.put(bytes).map_err(std::io::Error::other)?;
             store.names.insert(name.to_string(), meta.id);
         }
         Ok(store)
+    }
+
+    /// Re-reads the descriptions of scenes stored by an earlier run (files named by their hash).
+    fn index_stored(&mut self) {
+        let Ok(entries) = std::fs::read_dir(&self.dir) else { return };
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().to_string();
+            if name.len() != 64 || !name.bytes().all(|b| b.is_ascii_hexdigit()) {
+                continue;
+            }
+            match std::fs::read(e.path()).map_err(|e| e.to_string()).and_then(|b| self.put(&b)) {
+                Ok(_) => {}
+                Err(err) => tracing::warn!(scene = %name, "ignoring a stored scene that no longer loads: {err}"),
+            }
+        }
     }
 
     /// Validates and stores a scene; idempotent.

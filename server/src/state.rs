@@ -92,6 +92,17 @@ impl Shared {
         let _ = self.events.send(job_id.to_string());
     }
 
+    /// Finalizes jobs that ended by their time limit inside any scheduler call, and tells watchers.
+    pub async fn settle(self: &Arc<Self>) {
+        let finished = self.scheduler.lock().expect("lock").take_finished();
+        for id in finished {
+            let me = self.clone();
+            let id2 = id.clone();
+            let _ = tokio::task::spawn_blocking(move || me.finalize(&id2)).await;
+            self.notify(&id);
+        }
+    }
+
     /// Writes a finished job's EXR (memory and `DATA/jobs/<id>.exr`).
     pub fn finalize(&self, job_id: &str) {
         let bytes = {

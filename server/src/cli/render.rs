@@ -8,8 +8,6 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use tessera_server::bundled;
 use tessera_server::client::Coordinator;
-use tessera_server::state::{AppState, Config};
-use tessera_worker::client::WorkerConfig;
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -43,28 +41,10 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
 }
 
 async fn render_via_local_farm(a: &RenderArgs, data: &Path) -> anyhow::Result<()> {
-    let state = AppState::new(Config::new(data.to_path_buf())).context("starting the coordinator")?;
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
-    let url = format!("http://{}", listener.local_addr()?);
-    let (stop_server, server_stopped) = tokio::sync::oneshot::channel::<()>();
-    let server = tokio::spawn(tessera_server::app::run(listener, state, async {
-        let _ = server_stopped.await;
-    }));
-    let (stop_worker, worker_stopped) = tokio::sync::oneshot::channel::<()>();
-    let config = WorkerConfig { coordinator: url.clone(), token: None, threads: a.threads, name: "local".into() };
-    let worker = tokio::spawn(tessera_worker::client::run(config, async {
-        let _ = worker_stopped.await;
-    }));
-    let outcome = submit_and_fetch(a, &url).await;
-    let _ = stop_worker.send(());
-    let _ = worker.await;
-    let _ = stop_server.send(());
-    let _ = server.await;
-    outcome
+    tessera_server::local::with_local_farm(data, a.threads, |c| submit_and_fetch(a, c)).await
 }
 
-async fn submit_and_fetch(a: &RenderArgs, url: &str) -> anyhow::Result<()> {
-    let c = Coordinator::new(url, None);
+async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> {
     let start = Instant::now();
     let scene = scene_ref(&c, &a.scene).await?;
     let job = c.submit(&a.job.request(scene, Some(a.spp))).await?;

@@ -23,11 +23,12 @@ pub async fn metrics(State(st): State<AppState>) -> impl IntoResponse {
         ("tessera_results_stale_total", "Late or duplicate results ignored", c.results_stale.load(Ordering::Relaxed)),
         ("tessera_results_malformed_total", "Results refused as malformed", c.results_malformed.load(Ordering::Relaxed)),
         ("tessera_leases_granted_total", "Units leased to workers", c.leases_granted.load(Ordering::Relaxed)),
-        ("tessera_merge_seconds_total", "Time spent merging results (s, as ns)", c.merge_nanos.load(Ordering::Relaxed)),
     ];
     for (name, help, v) in counters {
         let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} counter\n{name} {v}");
     }
+    let merge_s = c.merge_nanos.load(Ordering::Relaxed) as f64 / 1e9;
+    let _ = writeln!(out, "# HELP tessera_merge_seconds_total Time spent merging results\n# TYPE tessera_merge_seconds_total counter\ntessera_merge_seconds_total {merge_s}");
     let sched = st.scheduler.lock().expect("lock");
     let _ = writeln!(out, "# HELP tessera_jobs Jobs by state\n# TYPE tessera_jobs gauge");
     for state in [JobState::Queued, JobState::Running, JobState::Done, JobState::Failed, JobState::Canceled] {

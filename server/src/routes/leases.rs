@@ -12,8 +12,11 @@ use tessera_proto::{Heartbeat, Lease, LeaseRequest, PartialSums, Problem, Regist
 /// Register a worker; returns its id.
 #[utoipa::path(post, path = "/v1/workers", tag = "workers", request_body = WorkerHello, responses((status = 201, body = Registration), (status = 400, body = Problem)))]
 pub async fn register(State(st): State<AppState>, Json(hello): Json<WorkerHello>) -> Result<impl IntoResponse, AppError> {
-    if hello.name.len() > 256 || hello.threads == 0 || hello.threads > 4096 {
-        return Err(AppError::field("threads", "name must be at most 256 bytes and threads in 1..=4096"));
+    if hello.name.len() > 256 {
+        return Err(AppError::field("name", "name must be at most 256 bytes"));
+    }
+    if hello.threads == 0 || hello.threads > 4096 {
+        return Err(AppError::field("threads", format!("expected threads in 1..=4096 (got {})", hello.threads)));
     }
     let id = st.scheduler.lock().expect("lock").register_worker(&hello.name, hello.threads, st.now());
     tracing::info!(worker = %id, name = %hello.name, threads = hello.threads, "worker registered");
@@ -45,7 +48,9 @@ pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<WorkerInfo>> {
 #[utoipa::path(post, path = "/v1/leases", tag = "workers", request_body = LeaseRequest,
     responses((status = 200, body = Lease), (status = 204, description = "no work now"), (status = 404, body = Problem)))]
 pub async fn lease(State(st): State<AppState>, Json(req): Json<LeaseRequest>) -> Result<Response, AppError> {
-    let grant = st.scheduler.lock().expect("lock").lease(&req.worker_id, st.now()).map_err(AppError::not_found)?;
+    let grant = st.scheduler.lock().expect("lock").lease(&req.worker_id, st.now());
+    st.0.settle().await;
+    let grant = grant.map_err(AppError::not_found)?;
     let Some(g) = grant else { return Ok(StatusCode::NO_CONTENT.into_response()) };
     st.counters.leases_granted.fetch_add(1, Ordering::Relaxed);
     st.notify(&g.job_id);
@@ -58,6 +63,7 @@ pub async fn lease(State(st): State<AppState>, Json(req): Json<LeaseRequest>) ->
     responses((status = 200, body = Heartbeat), (status = 409, body = Problem)))]
 pub async fn heartbeat(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<Heartbeat>, AppError> {
     let deadline = st.scheduler.lock().expect("lock").heartbeat(&id, st.now());
+    st.0.settle().await;
     deadline
         .map(|deadline_ms| axum::Json(Heartbeat { deadline_ms }))
         .ok_or_else(|| AppError::new(StatusCode::CONFLICT, format!("lease {id} is no longer active")))
@@ -90,6 +96,7 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, body: By
     };
     let t0 = std::time::Instant::now();
     let outcome = st.scheduler.lock().expect("lock").complete(&id, sums, st.now());
+    st.0.settle().await;
     st.counters.merge_nanos.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
     match outcome {
         Ok(Accepted { job_id, merged, job_finished }) => {

@@ -5,3 +5,16 @@ pub mod jobs;
 pub mod leases;
 pub mod scenes;
 pub mod validate;
+
+#[cfg(test)]
+mod tests;
+#[cfg(test)]
+mod tests_images;
+#[cfg(test)]
+mod tests_jobs;
+#[cfg(test)]
+mod tests_scenes;
+#[cfg(test)]
+mod tests_service;
+#[cfg(test)]
+mod tests_workers;

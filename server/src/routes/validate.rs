@@ -7,7 +7,8 @@ use tessera_worker::tracer::Estimator;
 use tessera_worker::tracer::sampler::SamplerKind;
 
 pub const MAX_SIDE: u32 = 16384;
-pub const MAX_PIXELS: u64 = 1 << 26;
+/// 16 Mpixel: the coordinator keeps 64 bytes of f64 sums per pixel (1 GiB at this size).
+pub const MAX_PIXELS: u64 = 1 << 24;
 pub const MAX_SPP: u32 = 1 << 20;
 /// Cap on samples per pixel for jobs stopped only by noise or time.
 pub const OPEN_ENDED_SPP: u32 = 1 << 16;
@@ -28,11 +29,10 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
         Some(s) => in_range("spp", s, 1, MAX_SPP)?,
         None => OPEN_ENDED_SPP,
     };
-    if let Some(n) = req.noise_target {
-        if !(n.is_finite() && n > 0.0) {
+    if let Some(n) = req.noise_target
+        && !(n.is_finite() && n > 0.0) {
             return Err(AppError::field("noise_target", "noise_target must be a finite number > 0"));
         }
-    }
     let time_limit_ms = match req.time_limit_s {
         Some(t) if t.is_finite() && t > 0.0 && t <= 1e7 => Some((t * 1000.0).ceil() as u64),
         Some(_) => return Err(AppError::field("time_limit_s", "time_limit_s must be in (0, 1e7] seconds")),

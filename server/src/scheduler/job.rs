@@ -6,6 +6,7 @@
 //! A noise target is decided on that same order (after merging batch k, is the tile's relMSE at
 //! or below the target?), so it is deterministic too.
 use crate::image::rel_mse;
+use std::cell::Cell;
 use std::collections::{BTreeMap, BTreeSet};
 use tessera_proto::{JobRequest, JobState, PartialSums, RenderParams, TileRect};
 use tessera_worker::tracer::PixelSums;
@@ -14,6 +15,7 @@ use tessera_worker::tracer::PixelSums;
 /// variance estimate itself is too noisy to trust.
 pub const MIN_SPP_FOR_NOISE_STOP: u32 = 16;
 const MAX_HISTORY: usize = 512;
+const HISTORY_EVERY_MS: u64 = 100;
 
 /// A validated job, as accepted.
 #[derive(Clone, Debug)]
@@ -45,7 +47,8 @@ pub struct TileRun {
     stop_at: Option<u32>,
     /// Pixel-samples merged (including dropped ones).
     merged_samples: u64,
-    rel_mse: Option<f64>,
+    /// relMSE of `merged`, computed lazily (None: not yet computed since the last merge).
+    rel_mse: Cell<Option<f64>>,
 }
 
 impl TileRun {
@@ -61,6 +64,17 @@ impl TileRun {
 
     fn complete(&self) -> bool {
         self.merged_upto >= self.limit()
+    }
+
+    /// The tile's relMSE, None before anything is merged.
+    fn noise(&self) -> Option<f64> {
+        if self.merged_upto == 0 {
+            return None;
+        }
+        if self.rel_mse.get().is_none() {
+            self.rel_mse.set(Some(rel_mse(&self.merged)));
+        }
+        self.rel_mse.get()
     }
 }
 
@@ -95,7 +109,7 @@ impl JobRun {
                     pending: BTreeMap::new(),
                     stop_at: None,
                     merged_samples: 0,
-                    rel_mse: None,
+                    rel_mse: Cell::new(None),
                 });
             }
         }
@@ -152,11 +166,13 @@ impl JobRun {
             self.merge_next(tile, next);
             merged += 1;
         }
-        if merged > 0 {
-            self.record_history(now);
-        }
         if self.tiles.iter().all(TileRun::complete) {
             self.finish(JobState::Done, now, None);
+        }
+        // A history row costs a pass over every tile's noise: at most one per HISTORY_EVERY_MS.
+        let due = self.history.last().is_none_or(|r| now >= self.started_ms.unwrap_or(0) + (r[0] * 1000.0) as u64 + HISTORY_EVERY_MS);
+        if merged > 0 && (due || self.state.is_final()) {
+            self.record_history(now);
         }
         merged
     }
@@ -170,11 +186,11 @@ impl JobRun {
         }
         t.merged_upto += 1;
         t.merged_samples += per_pixel * t.rect.pixel_count() as u64;
-        let rel = rel_mse(&t.merged);
-        t.rel_mse = Some(rel);
+        t.rel_mse.set(None);
         let spp_merged = sums.samples[1];
         if let Some(target) = target {
-            if t.stop_at.is_none() && spp_merged >= MIN_SPP_FOR_NOISE_STOP.min(self.cfg.spp) && rel <= target {
+            let may_stop = t.stop_at.is_none() && spp_merged >= MIN_SPP_FOR_NOISE_STOP.min(self.cfg.spp);
+            if may_stop && t.noise().is_some_and(|rel| rel <= target) {
                 t.stop_at = Some(t.merged_upto);
                 t.pending.clear();
             }
@@ -218,7 +234,7 @@ impl JobRun {
     pub fn noise(&self) -> Option<f64> {
         let (mut acc, mut px) = (0.0, 0.0);
         for t in &self.tiles {
-            if let Some(r) = t.rel_mse {
+            if let Some(r) = t.noise() {
                 acc += r * t.rect.pixel_count() as f64;
                 px += t.rect.pixel_count() as f64;
             }

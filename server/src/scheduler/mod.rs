@@ -73,6 +73,8 @@ pub struct Scheduler {
     next_lease: u64,
     next_worker: u64,
     lease_timeout_ms: u64,
+    /// Jobs that ended inside `tick` (time limits), for the caller to finalize.
+    finished: Vec<String>,
 }
 
 impl Scheduler {
@@ -86,6 +88,7 @@ impl Scheduler {
             next_lease: 0,
             next_worker: 0,
             lease_timeout_ms,
+            finished: Vec::new(),
         }
     }
 
@@ -267,7 +270,13 @@ impl Scheduler {
         for s in seqs {
             self.revoke_unwanted(s);
         }
+        self.finished.extend(finished.iter().cloned());
         finished
+    }
+
+    /// Jobs that ended by their time limit since the last call (whichever call noticed it).
+    pub fn take_finished(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.finished)
     }
 
     fn requeue(&mut self, l: &LeaseRec) {

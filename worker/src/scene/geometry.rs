@@ -31,11 +31,10 @@ pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize) ->
         if let Some(mesh) = node.mesh() {
             add_mesh(&mut parts.mesh, &mesh, world, buffers, material_count)?;
         }
-        if let Some(cam) = node.camera() {
-            if let gltf::camera::Projection::Perspective(p) = cam.projection() {
+        if let Some(cam) = node.camera()
+            && let gltf::camera::Projection::Perspective(p) = cam.projection() {
                 parts.cameras.push(camera(&node, &cam, &p, world)?);
             }
-        }
         if let Some(light) = node.light() {
             parts.lights.push(punctual(&light, world)?);
         }

@@ -162,20 +162,21 @@ fn a_unit_is_bit_identical_across_thread_counts_and_repeats() {
 #[test]
 fn merged_sample_ranges_equal_one_range_whatever_the_tile_split() {
     let scene = furnace(0.6, 0.2);
-    let s = settings(Estimator::Mis, Roulette::default(), 12, Vec3::ZERO);
-    let whole = render_tile(&scene, &s, s.full_frame(), 0..32).unwrap();
-    let mut frame = vec![PixelSums::default(); 144];
-    for (x0, w) in [(0, 5), (5, 7)] {
-        for (y0, h) in [(0, 12)] {
-            for range in [0..16, 16..32] {
-                render_tile(&scene, &s, Tile { x0, y0, w, h }, range).unwrap().add_into_frame(&mut frame, 12);
+    let s = settings(Estimator::Mis, Roulette::default(), 6, Vec3::ZERO);
+    let whole = render_tile(&scene, &s, s.full_frame(), 0..128).unwrap();
+    for columns in [[(0, 6), (6, 0)], [(0, 2), (2, 4)]] {
+        let mut frame = vec![PixelSums::default(); 36];
+        for (x0, w) in columns.into_iter().filter(|c| c.1 > 0) {
+            for range in [0..64, 64..128] {
+                render_tile(&scene, &s, Tile { x0, y0: 0, w, h: 6 }, range).unwrap().add_into_frame(&mut frame, 6);
             }
         }
-    }
-    for (a, b) in whole.pixels.iter().zip(&frame) {
-        assert_eq!(a.count, b.count);
-        for c in 0..3 {
-            assert!((a.sum[c] - b.sum[c]).abs() <= 1e-12 * a.sum[c].abs(), "{} vs {}", a.sum[c], b.sum[c]);
+        for (a, b) in whole.pixels.iter().zip(&frame) {
+            assert_eq!(a.count, b.count);
+            for c in 0..3 {
+                assert!((a.sum[c] - b.sum[c]).abs() <= 1e-12 * a.sum[c].abs(), "{} vs {}", a.sum[c], b.sum[c]);
+                assert!((a.sum_sq[c] - b.sum_sq[c]).abs() <= 1e-12 * a.sum_sq[c].abs());
+            }
         }
     }
 }

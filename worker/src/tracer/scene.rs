@@ -91,12 +91,11 @@ impl Scene {
         let mut tri_light = vec![NO_LIGHT; mesh.len()];
         for (i, tri) in mesh.positions.iter().enumerate() {
             let m = &materials[mesh.material[i] as usize];
-            if m.is_emissive() {
-                if let Some(l) = Light::triangle(i as u32, tri, m.emission, m.double_sided) {
+            if m.is_emissive()
+                && let Some(l) = Light::triangle(i as u32, tri, m.emission, m.double_sided) {
                     tri_light[i] = lights.len() as u32;
                     lights.push(l);
                 }
-            }
         }
         lights.extend(punctual);
         let (bounds_centre, bounds_radius) = bounding_sphere(&mesh.positions);

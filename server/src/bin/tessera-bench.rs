@@ -1,0 +1,176 @@
+//! Benchmarks of the distributed path (figures, not tests).
+//!
+//! `tessera-bench overhead`   — the same job rendered by the tracer alone and through a
+//!                              coordinator + 1 worker over loopback HTTP; prints both and the ratio.
+//! `tessera-bench roundtrips` — a coordinator on one core fed by fake workers that return
+//!                              results instantly; prints unit round trips per second and merge cost.
+use clap::{Parser, Subcommand};
+use std::time::{Duration, Instant};
+use tessera_proto::{JobRequest, PartialSums, TileRect, WirePixel};
+use tessera_server::bundled;
+use tessera_worker::client::render_settings;
+use tessera_worker::tracer::{Tile, render_tile};
+
+#[derive(Parser)]
+#[command(about = "Tessera benchmarks: print figures, assert nothing")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Tracer alone vs coordinator + 1 worker on the same job.
+    Overhead {
+        #[arg(long, default_value = "cornell-box")]
+        scene: String,
+        #[arg(long, default_value_t = 256)]
+        size: u32,
+        #[arg(long, default_value_t = 64)]
+        spp: u32,
+        /// Alternating runs of each; the fastest of each is reported.
+        #[arg(long, default_value_t = 3)]
+        repeats: u32,
+    },
+    /// Unit round trips per second through a one-core coordinator.
+    Roundtrips {
+        #[arg(long, default_value_t = 5.0)]
+        seconds: f64,
+        /// Concurrent fake workers.
+        #[arg(long, default_value_t = 8)]
+        workers: usize,
+        #[arg(long, default_value_t = 64)]
+        tile: u32,
+    },
+}
+
+fn main() -> anyhow::Result<()> {
+    match Cli::parse().cmd {
+        Cmd::Overhead { scene, size, spp, repeats } => overhead(&scene, size, spp, repeats),
+        Cmd::Roundtrips { seconds, workers, tile } => roundtrips(seconds, workers, tile),
+    }
+}
+
+fn job(scene: &str, size: u32, spp: u32) -> JobRequest {
+    JobRequest { scene: scene.into(), width: size, height: size, spp: Some(spp), tile_size: Some(64), batch_spp: Some(16), ..JobRequest::default() }
+}
+
+fn overhead(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Result<()> {
+    let scene = bundled::load(scene_name)?;
+    let params = tessera_proto::RenderParams {
+        width: size,
+        height: size,
+        seed: 0,
+        estimator: "mis".into(),
+        sampler: "sobol".into(),
+        camera: None,
+        max_depth: 1024,
+        background: [0.0; 3],
+    };
+    let settings = render_settings(&params).map_err(anyhow::Error::msg)?;
+    let rt = tokio::runtime::Runtime::new()?;
+    let (mut alone, mut farm) = (f64::INFINITY, f64::INFINITY);
+    for r in 0..repeats {
+        // The tracer alone, unit by unit in the farm's order (batches outer, tiles inner).
+        let t = Instant::now();
+        for b in 0..spp.div_ceil(16) {
+            for y0 in (0..size).step_by(64) {
+                for x0 in (0..size).step_by(64) {
+                    let tile = Tile { x0, y0, w: 64.min(size - x0), h: 64.min(size - y0) };
+                    render_tile(&scene, &settings, tile, b * 16..((b + 1) * 16).min(spp)).map_err(anyhow::Error::msg)?;
+                }
+            }
+        }
+        alone = alone.min(t.elapsed().as_secs_f64());
+        let data = std::env::temp_dir().join(format!("tessera-bench-{}-{r}", std::process::id()));
+        let t = Instant::now();
+        let req = job(scene_name, size, spp);
+        rt.block_on(tessera_server::local::with_local_farm(&data, 0, |c| async move {
+            let j = c.submit(&req).await?;
+            c.wait(&j.id, |_| {}).await?;
+            c.bytes(&format!("/v1/jobs/{}/image.exr", j.id)).await
+        }))?;
+        farm = farm.min(t.elapsed().as_secs_f64());
+        let _ = std::fs::remove_dir_all(&data);
+    }
+    let samples = size as f64 * size as f64 * spp as f64;
+    println!("overhead: {scene_name} {size}x{size} {spp} spp, units 64x64x16, fastest of {repeats}");
+    println!("  tracer alone           {alone:8.3} s  {:>10.0} samples/s", samples / alone);
+    println!("  coordinator + 1 worker {farm:8.3} s  {:>10.0} samples/s (incl. scene load, EXR encode and download)", samples / farm);
+    println!("  overhead               {:+7.2} %", (farm / alone - 1.0) * 100.0);
+    Ok(())
+}
+
+fn roundtrips(seconds: f64, workers: usize, tile: u32) -> anyhow::Result<()> {
+    let data = std::env::temp_dir().join(format!("tessera-bench-rt-{}", std::process::id()));
+    let state = tessera_server::state::AppState::new(tessera_server::state::Config::new(data.clone()))?;
+    let std_listener = std::net::TcpListener::bind("127.0.0.1:0")?;
+    std_listener.set_nonblocking(true)?;
+    let url = format!("http://{}", std_listener.local_addr()?);
+    let server_state = state.clone();
+    // The coordinator gets one core: a current-thread runtime on its own OS thread.
+    std::thread::spawn(move || {
+        let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().expect("runtime");
+        rt.block_on(async move {
+            let listener = tokio::net::TcpListener::from_std(std_listener).expect("listener");
+            let _ = tessera_server::app::run(listener, server_state, std::future::pending()).await;
+        });
+    });
+    let rt = tokio::runtime::Runtime::new()?;
+    let (units, elapsed) = rt.block_on(async {
+        let http = reqwest::Client::new();
+        let size = tile * 16;
+        let req = JobRequest { scene: "furnace".into(), width: size, height: size, spp: Some(1 << 20), tile_size: Some(tile), batch_spp: Some(1), ..JobRequest::default() };
+        http.post(format!("{url}/v1/jobs")).json(&req).send().await?.error_for_status()?;
+        let template = PartialSums {
+            tile: TileRect { x0: 0, y0: 0, w: tile, h: tile },
+            samples: [0, 1],
+            dropped: 0,
+            max_weight: 1.0,
+            pixels: vec![WirePixel { sum: [0.5; 3], sum_sq: [0.25; 3], sum_lum_sq: 0.25, count: 1 }; (tile * tile) as usize],
+        }
+        .encode();
+        let deadline = Instant::now() + Duration::from_secs_f64(seconds);
+        let start = Instant::now();
+        let tasks: Vec<_> = (0..workers)
+            .map(|i| {
+                let (http, url, template) = (http.clone(), url.clone(), template.clone());
+                tokio::spawn(async move { fake_worker(i, http, url, template, deadline).await })
+            })
+            .collect();
+        let mut total = 0u64;
+        for t in tasks {
+            total += t.await??;
+        }
+        anyhow::Ok((total, start.elapsed().as_secs_f64()))
+    })?;
+    let merge_ns = state.counters.merge_nanos.load(std::sync::atomic::Ordering::Relaxed) as f64;
+    println!("roundtrips: {workers} fake workers, {tile}x{tile} tiles, 1 spp units, coordinator on one core");
+    println!("  {units} units in {elapsed:.2} s = {:.0} unit round trips/s", units as f64 / elapsed);
+    println!("  merge cost {:.1} µs per unit (decode excluded)", merge_ns / units.max(1) as f64 / 1000.0);
+    let _ = std::fs::remove_dir_all(&data);
+    Ok(())
+}
+
+/// Leases units and returns ready-made results for them until the deadline; returns units merged.
+async fn fake_worker(i: usize, http: reqwest::Client, url: String, template: Vec<u8>, deadline: Instant) -> anyhow::Result<u64> {
+    let reg: tessera_proto::Registration =
+        http.post(format!("{url}/v1/workers")).json(&tessera_proto::WorkerHello { name: format!("fake{i}"), threads: 1 }).send().await?.json().await?;
+    let mut done = 0;
+    while Instant::now() < deadline {
+        let resp = http.post(format!("{url}/v1/leases")).json(&tessera_proto::LeaseRequest { worker_id: reg.worker_id.clone() }).send().await?;
+        if resp.status() == reqwest::StatusCode::NO_CONTENT {
+            continue;
+        }
+        let lease: tessera_proto::Lease = resp.json().await?;
+        let mut body = template.clone();
+        body[8..12].copy_from_slice(&lease.tile.x0.to_le_bytes());
+        body[12..16].copy_from_slice(&lease.tile.y0.to_le_bytes());
+        body[24..28].copy_from_slice(&lease.samples[0].to_le_bytes());
+        body[28..32].copy_from_slice(&lease.samples[1].to_le_bytes());
+        let r = http.put(format!("{url}/v1/leases/{}/result", lease.lease_id)).header("content-type", tessera_proto::sums::CONTENT_TYPE).body(body).send().await?;
+        anyhow::ensure!(r.status() == reqwest::StatusCode::NO_CONTENT, "result refused: {}", r.text().await?);
+        done += 1;
+    }
+    Ok(done)
+}

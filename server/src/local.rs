@@ -1,0 +1,32 @@
+//! A farm in one process: a coordinator on a loopback port and one worker using all cores,
+//! talking the same HTTP protocol as a real farm (used by `tessera render` and the benchmarks).
+use crate::client::Coordinator;
+use crate::state::{AppState, Config};
+use std::path::Path;
+use tessera_worker::client::WorkerConfig;
+
+/// Starts a coordinator and a worker, runs `f` against the coordinator's URL, then stops both.
+pub async fn with_local_farm<T, F, Fut>(data: &Path, threads: usize, f: F) -> anyhow::Result<T>
+where
+    F: FnOnce(Coordinator) -> Fut,
+    Fut: std::future::Future<Output = anyhow::Result<T>>,
+{
+    let state = AppState::new(Config::new(data.to_path_buf()))?;
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let url = format!("http://{}", listener.local_addr()?);
+    let (stop_server, server_stopped) = tokio::sync::oneshot::channel::<()>();
+    let server = tokio::spawn(crate::app::run(listener, state, async {
+        let _ = server_stopped.await;
+    }));
+    let (stop_worker, worker_stopped) = tokio::sync::oneshot::channel::<()>();
+    let config = WorkerConfig { coordinator: url.clone(), token: None, threads, name: "local".into() };
+    let worker = tokio::spawn(tessera_worker::client::run(config, async {
+        let _ = worker_stopped.await;
+    }));
+    let outcome = f(Coordinator::new(&url, None)).await;
+    let _ = stop_worker.send(());
+    let _ = worker.await;
+    let _ = stop_server.send(());
+    let _ = server.await;
+    outcome
+}

@@ -1,0 +1,220 @@
+//! The worker protocol over HTTP: register, lease, heartbeat, result, release.
+use super::tests::{Api, lease, put_result, register, samples_done, sums_for, tiled_job};
+use axum::http::{Method, StatusCode};
+use serde_json::{Value, json};
+
+#[tokio::test]
+async fn registering_returns_an_id_and_the_heartbeat_period() {
+    let api = Api::new("w-register");
+    let r = api.post_json("/v1/workers", &json!({"name": "box-1", "threads": 8})).await;
+    r.expect(StatusCode::CREATED);
+    let reg = r.json();
+    let id = reg["worker_id"].as_str().expect("worker_id");
+    assert!(!id.is_empty());
+    assert_eq!(reg["heartbeat_ms"], 10_000 / 3, "a third of the default 10 s lease timeout");
+    let list = api.get("/v1/workers").await;
+    list.expect(StatusCode::OK);
+    let list = list.json();
+    assert_eq!(list.as_array().unwrap().len(), 1);
+    assert_eq!(list[0]["id"], id);
+    assert_eq!(list[0]["name"], "box-1");
+    assert_eq!(list[0]["threads"], 8);
+    assert_eq!(list[0]["current"], Value::Null);
+}
+
+#[tokio::test]
+async fn registering_with_zero_threads_is_a_400_naming_threads() {
+    let api = Api::new("w-register-0");
+    let p = api.post_json("/v1/workers", &json!({"name": "x", "threads": 0})).await.problem(StatusCode::BAD_REQUEST);
+    assert_eq!(p.field.as_deref(), Some("threads"));
+    assert!(p.detail.contains("threads in 1..=4096"), "{p:?}");
+    let p = api.post_json("/v1/workers", &json!({"name": "x"})).await.problem(StatusCode::BAD_REQUEST);
+    assert_eq!(p.field.as_deref(), Some("threads"), "missing field: {p:?}");
+}
+
+#[tokio::test]
+async fn registering_with_a_too_long_name_is_a_400_naming_name() {
+    let api = Api::new("w-register-name");
+    let p = api.post_json("/v1/workers", &json!({"name": "n".repeat(300), "threads": 2})).await.problem(StatusCode::BAD_REQUEST);
+    assert_eq!(p.field.as_deref(), Some("name"), "{p:?}");
+    assert!(!p.detail.contains("threads"), "the threads are fine: {p:?}");
+}
+
+#[tokio::test]
+async fn leasing_for_an_unknown_worker_is_404() {
+    let api = Api::new("w-lease-404");
+    let p = api.post_json("/v1/leases", &json!({"worker_id": "w404"})).await.problem(StatusCode::NOT_FOUND);
+    assert!(p.detail.contains("unknown worker \"w404\""), "{p:?}");
+}
+
+#[tokio::test]
+async fn leasing_with_no_jobs_is_204_with_no_body() {
+    let api = Api::new("w-lease-204");
+    let w = register(&api).await;
+    let r = api.post_json("/v1/leases", &json!({"worker_id": w})).await;
+    r.expect(StatusCode::NO_CONTENT);
+    assert!(r.body.is_empty());
+}
+
+#[tokio::test]
+async fn leases_cover_the_jobs_tiles_and_batches_breadth_first() {
+    let api = Api::new("w-lease-units");
+    let w = register(&api).await;
+    let job = api.submit(&tiled_job()).await;
+    let job_id = job["id"].as_str().unwrap();
+
+    let first = lease(&api, &w).await;
+    assert_eq!(first.job_id, job_id);
+    assert_eq!(first.scene_id, job["scene"].as_str().unwrap());
+    assert_eq!((first.tile.x0, first.tile.y0, first.tile.w, first.tile.h), (0, 0, 8, 8), "tile_size 8");
+    assert_eq!(first.samples, [0, 3], "batch_spp 3");
+    assert_eq!(first.deadline_ms, 10_000);
+    assert_eq!((first.params.width, first.params.height), (20, 12));
+    assert_eq!((first.params.estimator.as_str(), first.params.sampler.as_str()), ("mis", "sobol"));
+    let status = api.job(job_id).await;
+    assert_eq!(status["state"], "running");
+    assert_eq!(status["workers"], 1);
+
+    let mut all = vec![first];
+    loop {
+        let r = api.post_json("/v1/leases", &json!({"worker_id": w})).await;
+        if r.status == StatusCode::NO_CONTENT {
+            break;
+        }
+        r.expect(StatusCode::OK);
+        all.push(serde_json::from_slice(&r.body).unwrap());
+    }
+    assert_eq!(all.len(), 12, "6 tiles × 2 batches");
+    assert!(all[..6].iter().all(|l| l.samples == [0, 3]) && all[6..].iter().all(|l| l.samples == [3, 5]), "breadth first, last batch clipped to spp");
+    let mut rects: Vec<_> = all[..6].iter().map(|l| (l.tile.x0, l.tile.y0, l.tile.w, l.tile.h)).collect();
+    rects.sort();
+    assert_eq!(rects, [(0, 0, 8, 8), (0, 8, 8, 4), (8, 0, 8, 8), (8, 8, 8, 4), (16, 0, 4, 8), (16, 8, 4, 4)]);
+    assert_eq!(api.metric("tessera_leases_granted_total").await, "12");
+}
+
+#[tokio::test]
+async fn heartbeats_extend_live_leases_and_answer_409_for_unknown_ones() {
+    let api = Api::new("w-heartbeat");
+    let w = register(&api).await;
+    api.submit(&tiled_job()).await;
+    let l = lease(&api, &w).await;
+    let r = api.request(Method::POST, &format!("/v1/leases/{}/heartbeat", l.lease_id), None, "").await;
+    r.expect(StatusCode::OK);
+    assert_eq!(r.json(), json!({"deadline_ms": 10_000}));
+    let p = api.request(Method::POST, "/v1/leases/l999-1/heartbeat", None, "").await.problem(StatusCode::CONFLICT);
+    assert!(p.detail.contains("l999-1") && p.detail.contains("no longer active"), "{p:?}");
+}
+
+#[tokio::test]
+async fn a_garbage_result_is_422_and_its_unit_is_issued_again() {
+    let api = Api::new("w-result-garbage");
+    let w = register(&api).await;
+    api.submit(&tiled_job()).await;
+    let l = lease(&api, &w).await;
+    let p = put_result(&api, &l.lease_id, b"this is not a result".to_vec()).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(p.detail.starts_with("malformed result:") && p.detail.contains("shorter than the 48-byte header"), "{p:?}");
+    let mut bad_magic = sums_for(&l, 1.0).encode();
+    bad_magic[..4].copy_from_slice(b"XSUM");
+    let p = put_result(&api, &l.lease_id, bad_magic).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(p.detail.contains("bad magic"), "{p:?}");
+    assert_eq!(api.metric("tessera_results_malformed_total").await, "2");
+    // The unit went back to the queue: the next lease is the same tile and samples.
+    let again = lease(&api, &w).await;
+    assert_ne!(again.lease_id, l.lease_id);
+    assert_eq!((again.tile, again.samples), (l.tile, l.samples));
+}
+
+#[tokio::test]
+async fn a_result_is_merged_once_and_a_duplicate_is_409() {
+    let api = Api::new("w-result-dup");
+    let w = register(&api).await;
+    let job_id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
+    let l = lease(&api, &w).await;
+    assert_eq!(samples_done(&api, &job_id).await, 0.0);
+    assert_eq!(api.get("/v1/workers").await.json()[0]["current"], format!("{job_id}/0/0"));
+    let body = sums_for(&l, 0.5).encode();
+
+    let r = put_result(&api, &l.lease_id, body.clone()).await;
+    r.expect(StatusCode::NO_CONTENT);
+    assert!(r.body.is_empty());
+    let after = samples_done(&api, &job_id).await;
+    assert_eq!(after, 3.0 * 64.0 / 240.0, "3 spp on 64 of the 240 pixels");
+
+    let p = put_result(&api, &l.lease_id, body).await.problem(StatusCode::CONFLICT);
+    assert!(p.detail.contains(&l.lease_id) && p.detail.contains("not active"), "{p:?}");
+    assert_eq!(samples_done(&api, &job_id).await, after, "a duplicate is never counted twice");
+    assert_eq!(api.metric("tessera_units_merged_total").await, "1");
+    assert_eq!(api.metric("tessera_results_stale_total").await, "1");
+    let job = api.job(&job_id).await;
+    assert_eq!(job["workers"], 0, "the lease is done");
+    assert_eq!(job["history"].as_array().unwrap().len(), 1);
+    assert_eq!(job["max_sample_weight"], 0.5);
+    let worker = &api.get("/v1/workers").await.json()[0];
+    assert_eq!((worker["units_done"].as_u64(), worker["current"].is_null()), (Some(1), true), "{worker}");
+}
+
+#[tokio::test]
+async fn a_result_for_the_wrong_tile_or_samples_is_422_and_not_merged() {
+    let api = Api::new("w-result-wrong");
+    let w = register(&api).await;
+    let job_id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
+    let l = lease(&api, &w).await;
+
+    let mut wrong_tile = sums_for(&l, 1.0);
+    wrong_tile.tile.x0 += 8;
+    let p = put_result(&api, &l.lease_id, wrong_tile.encode()).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(p.detail.contains("result is for tile") && p.detail.contains(&l.lease_id), "{p:?}");
+
+    let l2 = lease(&api, &w).await;
+    assert_eq!((l2.tile, l2.samples), (l.tile, l.samples), "the refused unit is issued again");
+    let mut wrong_samples = sums_for(&l2, 1.0);
+    wrong_samples.samples = [1, 4];
+    let p = put_result(&api, &l2.lease_id, wrong_samples.encode()).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(p.detail.contains("result covers samples [1, 4]"), "{p:?}");
+
+    assert_eq!(samples_done(&api, &job_id).await, 0.0);
+    assert_eq!(api.metric("tessera_units_merged_total").await, "0");
+    let workers = api.get("/v1/workers").await.json();
+    assert_eq!(workers[0]["failures"], 2);
+}
+
+#[tokio::test]
+async fn releasing_a_lease_is_204_once_then_404() {
+    let api = Api::new("w-release");
+    let w = register(&api).await;
+    api.submit(&tiled_job()).await;
+    let l = lease(&api, &w).await;
+    let r = api.delete(&format!("/v1/leases/{}", l.lease_id)).await;
+    r.expect(StatusCode::NO_CONTENT);
+    let p = api.delete(&format!("/v1/leases/{}", l.lease_id)).await.problem(StatusCode::NOT_FOUND);
+    assert!(p.detail.contains(&l.lease_id), "{p:?}");
+    api.request(Method::POST, &format!("/v1/leases/{}/heartbeat", l.lease_id), None, "").await.problem(StatusCode::CONFLICT);
+    let again = lease(&api, &w).await;
+    assert_eq!((again.tile, again.samples), (l.tile, l.samples), "a released unit is issued again");
+}
+
+#[tokio::test]
+async fn canceling_a_job_revokes_its_leases() {
+    let api = Api::new("w-cancel");
+    let w = register(&api).await;
+    let job_id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
+    let l = lease(&api, &w).await;
+    api.delete(&format!("/v1/jobs/{job_id}")).await.expect(StatusCode::OK);
+    api.request(Method::POST, &format!("/v1/leases/{}/heartbeat", l.lease_id), None, "").await.problem(StatusCode::CONFLICT);
+    put_result(&api, &l.lease_id, sums_for(&l, 1.0).encode()).await.problem(StatusCode::CONFLICT);
+    assert_eq!(samples_done(&api, &job_id).await, 0.0);
+    api.post_json("/v1/leases", &json!({"worker_id": w})).await.expect(StatusCode::NO_CONTENT);
+}
+
+#[tokio::test]
+async fn a_result_over_the_size_limit_is_413() {
+    let api = Api::new("w-result-413");
+    let r = put_result(&api, "l1-1", vec![0u8; (1024 * 1024 * 64) + 4096 + 1]).await;
+    r.expect(StatusCode::PAYLOAD_TOO_LARGE);
+}
+
+#[tokio::test]
+async fn a_result_over_the_size_limit_is_a_413_problem() {
+    let api = Api::new("w-result-413-problem");
+    put_result(&api, "l1-1", vec![0u8; (1024 * 1024 * 64) + 4096 + 1]).await.problem(StatusCode::PAYLOAD_TOO_LARGE);
+}
