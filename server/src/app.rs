@@ -97,5 +97,7 @@ async fn tick_forever(state: AppState) {
         interval.tick().await;
         state.scheduler.lock().expect("lock").tick(state.now());
         state.0.settle().await;
+        // Expired leases put units back: let long-polling workers look again.
+        state.work_available.notify_waiters();
     }
 }

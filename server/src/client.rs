@@ -7,11 +7,18 @@ pub struct Coordinator {
     base: String,
     http: reqwest::Client,
     token: Option<String>,
+    poll: Duration,
 }
 
 impl Coordinator {
     pub fn new(base: &str, token: Option<String>) -> Coordinator {
-        Coordinator { base: base.trim_end_matches('/').to_string(), http: reqwest::Client::new(), token }
+        Coordinator { base: base.trim_end_matches('/').to_string(), http: reqwest::Client::new(), token, poll: Duration::from_millis(100) }
+    }
+
+    /// How often [`Coordinator::wait`] polls (default 100 ms).
+    pub fn polling_every(mut self, poll: Duration) -> Coordinator {
+        self.poll = poll;
+        self
     }
 
     fn req(&self, method: reqwest::Method, path: &str) -> reqwest::RequestBuilder {
@@ -55,7 +62,7 @@ impl Coordinator {
             if job.state.is_final() {
                 return Ok(job);
             }
-            tokio::time::sleep(Duration::from_millis(100)).await;
+            tokio::time::sleep(self.poll).await;
         }
     }
 }

@@ -23,7 +23,8 @@ where
     let worker = tokio::spawn(tessera_worker::client::run(config, async {
         let _ = worker_stopped.await;
     }));
-    let outcome = f(Coordinator::new(&url, None)).await;
+    // Loopback polls are cheap: poll often so the job's end is noticed within milliseconds.
+    let outcome = f(Coordinator::new(&url, None).polling_every(std::time::Duration::from_millis(50))).await;
     let _ = stop_worker.send(());
     let _ = worker.await;
     let _ = stop_server.send(());

@@ -43,6 +43,9 @@ pub struct Shared {
     /// Ids of jobs whose status changed (for SSE).
     pub events: broadcast::Sender<String>,
     pub counters: Counters,
+    /// Woken when units may have become available (new job, released or expired lease), so
+    /// long-polling lease requests answer at once.
+    pub work_available: tokio::sync::Notify,
     start: Instant,
     next_job: AtomicU64,
 }
@@ -70,6 +73,7 @@ impl AppState {
             images: Mutex::new(HashMap::new()),
             events,
             counters: Counters::default(),
+            work_available: tokio::sync::Notify::new(),
             start: Instant::now(),
             next_job: AtomicU64::new(0),
         })))

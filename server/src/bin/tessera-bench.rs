@@ -85,12 +85,20 @@ fn overhead(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Resu
         let data = std::env::temp_dir().join(format!("tessera-bench-{}-{r}", std::process::id()));
         let t = Instant::now();
         let req = job(scene_name, size, spp);
-        rt.block_on(tessera_server::local::with_local_farm(&data, 0, |c| async move {
+        let phases = rt.block_on(tessera_server::local::with_local_farm(&data, 0, |c| async move {
+            let started = t.elapsed().as_secs_f64();
             let j = c.submit(&req).await?;
-            c.wait(&j.id, |_| {}).await?;
-            c.bytes(&format!("/v1/jobs/{}/image.exr", j.id)).await
+            let done = c.wait(&j.id, |_| {}).await?;
+            let rendered = t.elapsed().as_secs_f64();
+            c.bytes(&format!("/v1/jobs/{}/image.exr", j.id)).await?;
+            anyhow::Ok((started, done.elapsed_s, rendered, t.elapsed().as_secs_f64()))
         }))?;
-        farm = farm.min(t.elapsed().as_secs_f64());
+        let total = t.elapsed().as_secs_f64();
+        eprintln!(
+            "  run {r}: farm up {:.3} s, job {:.3} s (coordinator's clock), done seen {:.3} s, EXR {:.3} s, stopped {total:.3} s",
+            phases.0, phases.1, phases.2, phases.3
+        );
+        farm = farm.min(total);
         let _ = std::fs::remove_dir_all(&data);
     }
     let samples = size as f64 * size as f64 * spp as f64;

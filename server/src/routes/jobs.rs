@@ -23,6 +23,7 @@ pub async fn create(State(st): State<AppState>, Json(req): Json<JobRequest>) -> 
         job_status(s.job(&id).expect("just submitted"), st.now(), 0)
     };
     st.notify(&id);
+    st.work_available.notify_waiters();
     tracing::info!(job = %id, scene = %scene.id, "job accepted");
     Ok((StatusCode::ACCEPTED, [(header::LOCATION, format!("/v1/jobs/{id}"))], axum::Json(job)))
 }

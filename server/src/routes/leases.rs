@@ -3,7 +3,7 @@ use crate::error::{AppError, Json};
 use crate::scheduler::{Accepted, ResultError};
 use crate::state::AppState;
 use axum::body::Bytes;
-use axum::extract::{Path, State};
+use axum::extract::{Path, Query, State};
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use std::sync::atomic::Ordering;
@@ -44,14 +44,32 @@ pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<WorkerInfo>> {
     )
 }
 
+#[derive(serde::Deserialize, utoipa::IntoParams)]
+pub struct LeaseQuery {
+    /// Long poll: wait up to this many milliseconds (at most 5000) for work before answering 204.
+    wait_ms: Option<u64>,
+}
+
 /// Take the next unit of work: 200 with a lease, 204 when there is none, 404 for unknown workers.
-#[utoipa::path(post, path = "/v1/leases", tag = "workers", request_body = LeaseRequest,
+#[utoipa::path(post, path = "/v1/leases", tag = "workers", request_body = LeaseRequest, params(LeaseQuery),
     responses((status = 200, body = Lease), (status = 204, description = "no work now"), (status = 404, body = Problem)))]
-pub async fn lease(State(st): State<AppState>, Json(req): Json<LeaseRequest>) -> Result<Response, AppError> {
-    let grant = st.scheduler.lock().expect("lock").lease(&req.worker_id, st.now());
-    st.0.settle().await;
-    let grant = grant.map_err(AppError::not_found)?;
-    let Some(g) = grant else { return Ok(StatusCode::NO_CONTENT.into_response()) };
+pub async fn lease(State(st): State<AppState>, Query(q): Query<LeaseQuery>, Json(req): Json<LeaseRequest>) -> Result<Response, AppError> {
+    let deadline = tokio::time::Instant::now() + std::time::Duration::from_millis(q.wait_ms.unwrap_or(0).min(5000));
+    let g = loop {
+        // Register for wake-ups before looking, so work submitted in between is not missed.
+        let woken = st.work_available.notified();
+        tokio::pin!(woken);
+        woken.as_mut().enable();
+        let grant = st.scheduler.lock().expect("lock").lease(&req.worker_id, st.now());
+        st.0.settle().await;
+        match grant.map_err(AppError::not_found)? {
+            Some(g) => break g,
+            None if tokio::time::Instant::now() >= deadline => return Ok(StatusCode::NO_CONTENT.into_response()),
+            None => {
+                let _ = tokio::time::timeout_at(deadline, woken).await;
+            }
+        }
+    };
     st.counters.leases_granted.fetch_add(1, Ordering::Relaxed);
     st.notify(&g.job_id);
     let lease = Lease { lease_id: g.lease_id, job_id: g.job_id, scene_id: g.scene_id, params: g.params, tile: g.tile, samples: g.samples, deadline_ms: g.deadline_ms };
@@ -74,6 +92,7 @@ pub async fn heartbeat(State(st): State<AppState>, Path(id): Path<String>) -> Re
     responses((status = 204), (status = 404, body = Problem)))]
 pub async fn release(State(st): State<AppState>, Path(id): Path<String>) -> Result<StatusCode, AppError> {
     if st.scheduler.lock().expect("lock").release(&id) {
+        st.work_available.notify_waiters();
         Ok(StatusCode::NO_CONTENT)
     } else {
         Err(AppError::not_found(format!("lease {id} is not active")))

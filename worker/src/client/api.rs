@@ -105,7 +105,7 @@ impl Api {
 
     pub(crate) async fn lease(&self, worker_id: &str) -> Result<LeaseAnswer, CallError> {
         let body = LeaseRequest { worker_id: worker_id.to_owned() };
-        let resp = send(self.request(Method::POST, "/v1/leases", JSON_TIMEOUT).json(&body), "lease request").await?;
+        let resp = send(self.request(Method::POST, "/v1/leases?wait_ms=1000", JSON_TIMEOUT).json(&body), "lease request").await?;
         match resp.status() {
             StatusCode::OK => Ok(LeaseAnswer::Lease(Box::new(json(resp, "lease request", |b| serde_json::from_slice::<Lease>(b)).await?))),
             StatusCode::NO_CONTENT => Ok(LeaseAnswer::NoWork),

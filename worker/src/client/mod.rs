@@ -75,9 +75,10 @@ pub struct WorkerReport {
 pub const SHUTDOWN_GRACE: Duration = Duration::from_secs(2);
 /// How long a result upload still in flight at shutdown may take.
 const SHUTDOWN_UPLOAD_WAIT: Duration = Duration::from_secs(5);
-/// A lease request in flight at shutdown gets this long to answer (a lease granted meanwhile is
+/// A lease request in flight at shutdown gets this long to answer; a long poll (up to 1 s) is
+/// simply dropped, which cancels it on the coordinator before it grants anything (a lease granted meanwhile is
 /// given back rather than left to expire).
-const LEASE_DRAIN: Duration = Duration::from_millis(500);
+const LEASE_DRAIN: Duration = Duration::from_millis(20);
 /// Polling while the coordinator has no work (204), and after a unit that could not be worked.
 const IDLE: Backoff = Backoff::new(Duration::from_millis(50), Duration::from_secs(1));
 const SCENE_ATTEMPTS: u32 = 5;

@@ -187,12 +187,12 @@ impl WatertightRay {
     }
 }
 
-/// a·b − c·d with one rounding error (Kahan's algorithm via FMA).
+/// a·b − c·d, accurate to about one f32 ulp: the products of f32s are exact in f64, leaving one
+/// f64 rounding and one f32 rounding. Sign-symmetric, so an edge shared by two triangles gets
+/// exactly opposite values from both (watertightness), and needs no FMA instruction (a software
+/// `fmaf` call cost 4% of render time on CPUs targeted without FMA).
 fn difference_of_products(a: f32, b: f32, c: f32, d: f32) -> f32 {
-    let cd = c * d;
-    let err = (-c).mul_add(d, cd);
-    let dop = a.mul_add(b, -cd);
-    dop + err
+    (a as f64 * b as f64 - c as f64 * d as f64) as f32
 }
 
 fn edge_functions(p0: Vec3, p1: Vec3, p2: Vec3) -> (f32, f32, f32) {
