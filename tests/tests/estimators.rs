@@ -1,24 +1,13 @@
 //! All four estimators render the same Cornell box; MIS does it with the least variance.
-use crate::harness::{channel, region_mean};
+use crate::harness::{channel, independent_settings, region_mean};
 use tessera_server::bundled;
-use tessera_worker::tracer::integrator::PathSettings;
-use tessera_worker::tracer::sampler::SamplerKind;
-use tessera_worker::tracer::{Estimator, PixelSums, RenderSettings, Roulette, render_tile};
+use tessera_worker::tracer::{Estimator, PixelSums, render_tile};
 
 const SIZE: u32 = 32;
 
 fn render(est: Estimator, spp: u32) -> Vec<PixelSums> {
     let scene = bundled::load("cornell-box").unwrap();
-    let s = RenderSettings {
-        width: SIZE,
-        height: SIZE,
-        seed: 11,
-        // Independent samples make the measured spread a valid error bar.
-        sampler: SamplerKind::Independent,
-        path: PathSettings { estimator: est, roulette: Roulette::default(), max_depth: 1024 },
-        background: glam::Vec3::ZERO,
-        camera: None,
-    };
+    let s = independent_settings((SIZE, SIZE), 11, est);
     render_tile(&scene, &s, s.full_frame(), 0..spp).unwrap().pixels
 }
 

@@ -1,11 +1,9 @@
 //! The Cornell box against an independent renderer: Mitsuba 3's reference image
 //! (tests/reference/, made by make_cornell_reference.py) must agree with ours.
-use crate::harness::{channel, region_mean, repo_root};
+use crate::harness::{channel, independent_settings, region_mean, repo_root};
 use tessera_server::bundled;
 use tessera_server::output::decode_exr;
-use tessera_worker::tracer::integrator::PathSettings;
-use tessera_worker::tracer::sampler::SamplerKind;
-use tessera_worker::tracer::{Estimator, RenderSettings, Roulette, render_tile};
+use tessera_worker::tracer::{Estimator, render_tile};
 
 #[test]
 fn cornell_box_matches_mitsuba_within_error_bars() {
@@ -13,15 +11,7 @@ fn cornell_box_matches_mitsuba_within_error_bars() {
     let (reference, _) = decode_exr(&bytes).expect("decode reference");
     let (w, h) = (reference.width as u32, reference.height as u32);
     let scene = bundled::load("cornell-box").unwrap();
-    let s = RenderSettings {
-        width: w,
-        height: h,
-        seed: 5,
-        sampler: SamplerKind::Independent,
-        path: PathSettings { estimator: Estimator::Mis, roulette: Roulette::default(), max_depth: 1024 },
-        background: glam::Vec3::ZERO,
-        camera: None,
-    };
+    let s = independent_settings((w, h), 5, Estimator::Mis);
     let ours = render_tile(&scene, &s, s.full_frame(), 0..256).unwrap().pixels;
     let n = (w * h) as f64;
     for c in 0..3 {

@@ -72,8 +72,7 @@ pub async fn lease(State(st): State<AppState>, Query(q): Query<LeaseQuery>, Json
     };
     st.counters.leases_granted.fetch_add(1, Ordering::Relaxed);
     st.notify(&g.job_id);
-    let lease = Lease { lease_id: g.lease_id, job_id: g.job_id, scene_id: g.scene_id, params: g.params, tile: g.tile, samples: g.samples, deadline_ms: g.deadline_ms };
-    Ok(axum::Json(lease).into_response())
+    Ok(axum::Json(g).into_response())
 }
 
 /// Extend a lease; 409 when it is gone (expired or its job ended): stop rendering it.

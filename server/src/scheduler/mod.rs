@@ -16,18 +16,7 @@ mod tests;
 
 pub use job::{JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP};
 use std::collections::{BTreeMap, HashMap};
-use tessera_proto::{JobState, PartialSums, RenderParams, TileRect};
-
-#[derive(Clone, Debug, PartialEq)]
-pub struct Grant {
-    pub lease_id: String,
-    pub job_id: String,
-    pub scene_id: String,
-    pub params: RenderParams,
-    pub tile: TileRect,
-    pub samples: [u32; 2],
-    pub deadline_ms: u64,
-}
+use tessera_proto::{JobState, Lease, PartialSums};
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum ResultError {
@@ -134,7 +123,7 @@ impl Scheduler {
 
     /// Hands the worker its next unit, or None when there is nothing to do.
     /// Err when the worker is unknown (e.g. registered with a previous coordinator).
-    pub fn lease(&mut self, worker: &str, now: u64) -> Result<Option<Grant>, String> {
+    pub fn lease(&mut self, worker: &str, now: u64) -> Result<Option<Lease>, String> {
         self.tick(now);
         let w = self.workers.get_mut(worker).ok_or_else(|| format!("unknown worker {worker:?}"))?;
         w.last_seen = now;
@@ -159,7 +148,7 @@ impl Scheduler {
         if let Some(w) = self.workers.get_mut(worker) {
             w.current = Some(format!("{}/{}/{}", job.cfg.id, tile, batch));
         }
-        Ok(Some(Grant {
+        Ok(Some(Lease {
             lease_id,
             job_id: job.cfg.id.clone(),
             scene_id: job.cfg.scene_id.clone(),

@@ -1,5 +1,5 @@
 use super::*;
-use tessera_proto::{JobRequest, WirePixel};
+use tessera_proto::{JobRequest, RenderParams, WirePixel};
 
 const TIMEOUT: u64 = 1000;
 
@@ -22,14 +22,14 @@ fn config(id: &str, spp: u32, priority: i32) -> JobConfig {
 }
 
 /// Sums for a unit whose every sample has radiance `v` (+ a per-batch wobble so order matters).
-fn sums(g: &Grant, v: f64) -> PartialSums {
+fn sums(g: &Lease, v: f64) -> PartialSums {
     let n = (g.samples[1] - g.samples[0]) as f64;
     let x = v + g.samples[0] as f64 * 1e-3;
     let p = WirePixel { sum: [x * n; 3], sum_sq: [x * x * n + 1e-4; 3], sum_lum_sq: x * x * n, count: n as u64 };
     PartialSums { tile: g.tile, samples: g.samples, dropped: 0, max_weight: 1.0, pixels: vec![p; g.tile.pixel_count()] }
 }
 
-fn drain(s: &mut Scheduler, w: &str, now: u64) -> Vec<Grant> {
+fn drain(s: &mut Scheduler, w: &str, now: u64) -> Vec<Lease> {
     std::iter::from_fn(|| s.lease(w, now).unwrap()).collect()
 }
 
@@ -85,7 +85,7 @@ fn a_mismatched_result_is_refused_and_the_unit_reissued() {
 
 #[test]
 fn arrival_order_does_not_change_a_bit_of_the_image() {
-    let run = |order: &dyn Fn(Vec<Grant>) -> Vec<Grant>| {
+    let run = |order: &dyn Fn(Vec<Lease>) -> Vec<Lease>| {
         let mut s = Scheduler::new(TIMEOUT);
         let w = s.register_worker("a", 2, 0);
         s.submit(config("j", 12, 0));
