@@ -49,6 +49,7 @@ pub fn app(state: AppState) -> Router {
         .fallback(|uri: axum::http::Uri| async move { AppError::not_found(format!("no route {uri}")) })
         .method_not_allowed_fallback(|| async { AppError::new(StatusCode::METHOD_NOT_ALLOWED, "this route does not take that method") })
         .layer(DefaultBodyLimit::max(JSON_LIMIT))
+        .layer(axum::middleware::from_fn_with_state(state.clone(), crate::auth::require_token))
         .layer(axum::middleware::map_response(as_problem))
         .with_state(state)
 }

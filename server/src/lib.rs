@@ -10,6 +10,7 @@
 //! - [`app`], [`routes`], [`state`], [`error`], [`scenes`]: the axum coordinator —
 //!   `app(state) -> Router`, handlers grouped by resource, problem+json errors, the scene store.
 pub mod app;
+pub mod auth;
 pub mod bundled;
 pub mod client;
 pub mod error;

@@ -17,11 +17,22 @@ pub struct Config {
     pub lease_timeout_ms: u64,
     pub max_scene_bytes: usize,
     pub max_triangles: u64,
+    /// Bearer token for clients (submit, read, cancel); None leaves client routes open.
+    pub client_token: Option<String>,
+    /// Bearer token for workers (register, lease, heartbeat, result, scene data).
+    pub worker_token: Option<String>,
 }
 
 impl Config {
     pub fn new(data_dir: PathBuf) -> Config {
-        Config { data_dir, lease_timeout_ms: 10_000, max_scene_bytes: 256 << 20, max_triangles: 5_000_000 }
+        Config {
+            data_dir,
+            lease_timeout_ms: 10_000,
+            max_scene_bytes: 256 << 20,
+            max_triangles: 5_000_000,
+            client_token: None,
+            worker_token: None,
+        }
     }
 }
 

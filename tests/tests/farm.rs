@@ -20,14 +20,23 @@ struct Farm {
     url: String,
     _coordinator: Proc,
     workers: Vec<Proc>,
+    worker_token: Option<String>,
 }
 
 impl Farm {
     fn start(name: &str, workers: usize) -> Farm {
+        Farm::start_with(name, workers, None)
+    }
+
+    /// With `tokens` = (client, worker), the coordinator requires them and workers send theirs.
+    fn start_with(name: &str, workers: usize, tokens: Option<(&str, &str)>) -> Farm {
         let data = temp_dir(name);
-        let mut child = Command::new(tessera_bin())
-            .args(["serve", "--listen", "127.0.0.1:0", "--lease-timeout", "5", "--data"])
-            .arg(&data)
+        let mut cmd = Command::new(tessera_bin());
+        cmd.args(["serve", "--listen", "127.0.0.1:0", "--lease-timeout", "5", "--data"]).arg(&data);
+        if let Some((c, w)) = tokens {
+            cmd.env("TESSERA_CLIENT_TOKEN", c).env("TESSERA_WORKER_TOKEN", w);
+        }
+        let mut child = cmd
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
@@ -35,7 +44,8 @@ impl Farm {
         let mut line = String::new();
         BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
         let url = line.trim().strip_prefix("listening on ").expect("address line").to_string();
-        let mut farm = Farm { url, _coordinator: Proc(child), workers: Vec::new() };
+        let worker_token = tokens.map(|t| t.1.to_string());
+        let mut farm = Farm { url, _coordinator: Proc(child), workers: Vec::new(), worker_token };
         for _ in 0..workers {
             farm.add_worker();
         }
@@ -43,7 +53,11 @@ impl Farm {
     }
 
     fn add_worker(&mut self) {
-        let child = Command::new(tessera_bin())
+        let mut cmd = Command::new(tessera_bin());
+        if let Some(t) = &self.worker_token {
+            cmd.env("TESSERA_WORKER_TOKEN", t);
+        }
+        let child = cmd
             .args(["work", "--threads", "1", "--coordinator", &self.url])
             .stdout(Stdio::null())
             .stderr(Stdio::null())
@@ -194,5 +208,19 @@ fn cancel_frees_workers_within_a_second() {
         let workers: Vec<tessera_proto::WorkerInfo> = http.get(format!("{}/v1/workers", farm.url)).send().await.unwrap().json().await.unwrap();
         assert_eq!(workers.len(), 2);
         assert_eq!(c.job(&job.id).await.unwrap().state, JobState::Canceled);
+    });
+}
+
+#[test]
+fn with_tokens_workers_and_clients_get_in_with_theirs_only() {
+    let rt = rt();
+    let farm = Farm::start_with("tokens", 1, Some(("c-token", "w-token")));
+    rt.block_on(async {
+        let anonymous = farm.client().submit(&request(Some(8))).await.unwrap_err();
+        assert!(anonymous.to_string().contains("Unauthorized"), "{anonymous}");
+        let c = Coordinator::new(&farm.url, Some("c-token".into()));
+        let job = c.submit(&request(Some(8))).await.unwrap();
+        let done = c.wait(&job.id, |_| {}).await.unwrap();
+        assert_eq!(done.state, JobState::Done, "the worker got in with its token");
     });
 }

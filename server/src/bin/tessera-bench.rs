@@ -31,6 +31,9 @@ enum Cmd {
         /// Alternating runs of each; the fastest of each is reported.
         #[arg(long, default_value_t = 3)]
         repeats: u32,
+        /// Samples per pixel in one unit (the tracer-alone run uses the same units).
+        #[arg(long, default_value_t = 16)]
+        batch_spp: u32,
     },
     /// Unit round trips per second through a one-core coordinator.
     Roundtrips {
@@ -46,16 +49,16 @@ enum Cmd {
 
 fn main() -> anyhow::Result<()> {
     match Cli::parse().cmd {
-        Cmd::Overhead { scene, size, spp, repeats } => overhead(&scene, size, spp, repeats),
+        Cmd::Overhead { scene, size, spp, repeats, batch_spp } => overhead(&scene, size, spp, repeats, batch_spp),
         Cmd::Roundtrips { seconds, workers, tile } => roundtrips(seconds, workers, tile),
     }
 }
 
-fn job(scene: &str, size: u32, spp: u32) -> JobRequest {
-    JobRequest { scene: scene.into(), width: size, height: size, spp: Some(spp), tile_size: Some(64), batch_spp: Some(16), ..JobRequest::default() }
+fn job(scene: &str, size: u32, spp: u32, batch: u32) -> JobRequest {
+    JobRequest { scene: scene.into(), width: size, height: size, spp: Some(spp), tile_size: Some(64), batch_spp: Some(batch), ..JobRequest::default() }
 }
 
-fn overhead(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Result<()> {
+fn overhead(scene_name: &str, size: u32, spp: u32, repeats: u32, batch: u32) -> anyhow::Result<()> {
     let scene = bundled::load(scene_name)?;
     let params = tessera_proto::RenderParams {
         width: size,
@@ -73,18 +76,18 @@ fn overhead(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Resu
     for r in 0..repeats {
         // The tracer alone, unit by unit in the farm's order (batches outer, tiles inner).
         let t = Instant::now();
-        for b in 0..spp.div_ceil(16) {
+        for b in 0..spp.div_ceil(batch) {
             for y0 in (0..size).step_by(64) {
                 for x0 in (0..size).step_by(64) {
                     let tile = Tile { x0, y0, w: 64.min(size - x0), h: 64.min(size - y0) };
-                    render_tile(&scene, &settings, tile, b * 16..((b + 1) * 16).min(spp)).map_err(anyhow::Error::msg)?;
+                    render_tile(&scene, &settings, tile, b * batch..((b + 1) * batch).min(spp)).map_err(anyhow::Error::msg)?;
                 }
             }
         }
         alone = alone.min(t.elapsed().as_secs_f64());
         let data = std::env::temp_dir().join(format!("tessera-bench-{}-{r}", std::process::id()));
         let t = Instant::now();
-        let req = job(scene_name, size, spp);
+        let req = job(scene_name, size, spp, batch);
         let phases = rt.block_on(tessera_server::local::with_local_farm(&data, 0, |c| async move {
             let started = t.elapsed().as_secs_f64();
             let j = c.submit(&req).await?;
@@ -102,7 +105,7 @@ fn overhead(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Resu
         let _ = std::fs::remove_dir_all(&data);
     }
     let samples = size as f64 * size as f64 * spp as f64;
-    println!("overhead: {scene_name} {size}x{size} {spp} spp, units 64x64x16, fastest of {repeats}");
+    println!("overhead: {scene_name} {size}x{size} {spp} spp, units 64x64x{batch}, fastest of {repeats}");
     println!("  tracer alone           {alone:8.3} s  {:>10.0} samples/s", samples / alone);
     println!("  coordinator + 1 worker {farm:8.3} s  {:>10.0} samples/s (incl. scene load, EXR encode and download)", samples / farm);
     println!("  overhead               {:+7.2} %", (farm / alone - 1.0) * 100.0);

@@ -20,6 +20,15 @@ pub struct ServeArgs {
     /// Most triangles in an accepted scene.
     #[arg(long, default_value_t = 5_000_000)]
     pub max_triangles: u64,
+    /// Bearer token clients must send (submit, read, cancel, dashboard).
+    #[arg(long, env = "TESSERA_CLIENT_TOKEN", hide_env_values = true)]
+    pub client_token: Option<String>,
+    /// Bearer token workers must send (register, lease, heartbeat, result, scene data).
+    #[arg(long, env = "TESSERA_WORKER_TOKEN", hide_env_values = true)]
+    pub worker_token: Option<String>,
+    /// Listen on a non-loopback address even without tokens (anyone who can reach it can use it).
+    #[arg(long)]
+    pub insecure: bool,
 }
 
 pub fn run(a: ServeArgs) -> anyhow::Result<()> {
@@ -28,11 +37,22 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
     config.lease_timeout_ms = (a.lease_timeout * 1000.0) as u64;
     config.max_scene_bytes = a.max_scene_mib << 20;
     config.max_triangles = a.max_triangles;
+    config.client_token = a.client_token.clone().filter(|t| !t.is_empty());
+    config.worker_token = a.worker_token.clone().filter(|t| !t.is_empty());
+    let open = config.client_token.is_none() || config.worker_token.is_none();
     let rt = tokio::runtime::Runtime::new()?;
     rt.block_on(async {
         let state = AppState::new(config)?;
         let listener = tokio::net::TcpListener::bind(&a.listen).await?;
         let addr = listener.local_addr()?;
+        if open && !addr.ip().is_loopback() && !a.insecure {
+            anyhow::bail!(
+                "refusing to listen on {addr} without both --client-token and --worker-token; set them, listen on 127.0.0.1, or pass --insecure"
+            );
+        }
+        if open {
+            tracing::warn!(%addr, "some routes need no token (set --client-token and --worker-token to require them)");
+        }
         // The first line of stdout is the address, for scripts and tests that asked for port 0.
         println!("listening on http://{addr}");
         tracing::info!(%addr, data = %a.data.display(), "coordinator listening");

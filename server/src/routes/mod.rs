@@ -9,6 +9,8 @@ pub mod validate;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests_auth;
+#[cfg(test)]
 mod tests_images;
 #[cfg(test)]
 mod tests_jobs;
