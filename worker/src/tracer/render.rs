@@ -55,6 +55,9 @@ pub fn render_tile_cancellable(
         .pixels
         .par_chunks_mut(tile.w.max(1) as usize)
         .enumerate()
+        // One row per task: rows cost ~1 ms and differ a lot (light, walls), and rayon's default
+        // splitting leaves one thread idle for many rows at the end of each unit.
+        .with_max_len(1)
         .map(|(row, pixels)| {
             if cancel.load(Ordering::Relaxed) {
                 return (0, 0.0);
