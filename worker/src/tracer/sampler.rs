@@ -180,7 +180,8 @@ impl Sampler {
         // x seed; y's seed is re-hashed so the three are independent.
         let h = hash2(self.pixel_hash, SOBOL_SALT ^ u64::from(dim));
         let index = owen_scramble(self.sample_index, h as u32);
-        let x = owen_scramble(sobol_dim0(index), (h >> 32) as u32);
+        // owen_scramble(sobol_dim0(i)) reverses i twice; skip both reversals (same bits).
+        let x = laine_karras(index, (h >> 32) as u32).reverse_bits();
         let y = if want_y {
             owen_scramble(sobol_dim1(index), mix64(h) as u32)
         } else {
@@ -215,6 +216,7 @@ fn to_unit(bits: u32) -> f32 {
 
 /// Sobol dimension 0 (van der Corput): the identity generator matrix, i.e.
 /// the index with its bits mirrored about the binary point.
+#[cfg_attr(not(test), allow(dead_code))] // the generator the tests check; sobol_bits inlines it
 fn sobol_dim0(index: u32) -> u32 {
     index.reverse_bits()
 }
@@ -256,13 +258,17 @@ const SOBOL_DIM1_DIRECTIONS: [u32; 32] = {
 /// Laine–Karras permutation (psychopath.io, 2021); its constants are
 /// 0x3d20adea, 0x05526c56, 0x53a22864.
 fn owen_scramble(x: u32, seed: u32) -> u32 {
-    let mut v = x.reverse_bits();
+    laine_karras(x.reverse_bits(), seed).reverse_bits()
+}
+
+/// The hash of [`owen_scramble`] in the bit-reversed domain.
+fn laine_karras(mut v: u32, seed: u32) -> u32 {
     v ^= v.wrapping_mul(0x3d20_adea);
     v = v.wrapping_add(seed);
     v = v.wrapping_mul((seed >> 16) | 1);
     v ^= v.wrapping_mul(0x0552_6c56);
     v ^= v.wrapping_mul(0x53a2_2864);
-    v.reverse_bits()
+    v
 }
 
 #[cfg(test)]
