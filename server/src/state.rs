@@ -9,6 +9,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use tessera_proto::{Job, JobState, Progress};
+use tessera_worker::tracer::PixelSums;
 use tokio::sync::broadcast;
 
 #[derive(Clone, Debug)]
@@ -120,18 +121,19 @@ impl Shared {
 
     /// Writes a finished job's EXR (memory and `DATA/jobs/<id>.exr`).
     pub fn finalize(&self, job_id: &str) {
-        let bytes = {
+        let snapshot = {
             let sched = self.scheduler.lock().expect("lock");
             let Some(job) = sched.job(job_id) else { return };
             if job.state != JobState::Done {
                 return;
             }
-            match encode_job_exr(job, self.now()) {
-                Ok(b) => b,
-                Err(e) => {
-                    tracing::error!(job = job_id, "encoding the final image failed: {e:#}");
-                    return;
-                }
+            JobImage::of(job, self.now())
+        };
+        let bytes = match snapshot.encode_exr() {
+            Ok(b) => b,
+            Err(e) => {
+                tracing::error!(job = job_id, "encoding the final image failed: {e:#}");
+                return;
             }
         };
         if let Err(e) = write_atomically(&self.config.data_dir.join("jobs").join(format!("{job_id}.exr")), &bytes) {
@@ -142,11 +144,34 @@ impl Shared {
     }
 }
 
-pub fn encode_job_exr(job: &JobRun, now: u64) -> anyhow::Result<Vec<u8>> {
+/// A copy of a job's merged sums and metadata, taken under the scheduler lock so that encoding
+/// (tens of milliseconds and up) happens outside it.
+pub struct JobImage {
+    pub width: u32,
+    pub height: u32,
+    pub frame: Vec<PixelSums>,
+    meta: Vec<(String, MetaValue)>,
+}
+
+impl JobImage {
+    pub fn of(job: &JobRun, now: u64) -> JobImage {
+        let p = &job.cfg.params;
+        JobImage { width: p.width, height: p.height, frame: job.frame(), meta: exr_meta(job, now) }
+    }
+
+    pub fn encode_exr(&self) -> anyhow::Result<Vec<u8>> {
+        output::encode_exr(&image::layers(self.width, self.height, &self.frame), &self.meta)
+    }
+
+    pub fn encode_png(&self) -> Vec<u8> {
+        let layers = image::layers(self.width, self.height, &self.frame);
+        output::encode_png_preview(layers.width, layers.height, &layers.rgb)
+    }
+}
+
+fn exr_meta(job: &JobRun, now: u64) -> Vec<(String, MetaValue)> {
     let p = &job.cfg.params;
-    let frame = job.frame();
-    let layers = image::layers(p.width, p.height, &frame);
-    let meta = vec![
+    vec![
         ("software".to_string(), MetaValue::Text(format!("tessera {}", env!("CARGO_PKG_VERSION")))),
         ("tessera.job".into(), MetaValue::Text(job.cfg.id.clone())),
         ("tessera.scene".into(), MetaValue::Text(job.cfg.scene_id.clone())),
@@ -159,8 +184,7 @@ pub fn encode_job_exr(job: &JobRun, now: u64) -> anyhow::Result<Vec<u8>> {
         ("tessera.max_sample_weight".into(), MetaValue::Double(job.max_weight)),
         ("tessera.render_time_s".into(), MetaValue::Double(job.elapsed_ms(now) as f64 / 1000.0)),
         ("tessera.noise".into(), MetaValue::Double(job.noise().unwrap_or(0.0))),
-    ];
-    output::encode_exr(&layers, &meta)
+    ]
 }
 
 /// The client's view of a job.

@@ -35,13 +35,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     }
     let data = std::env::temp_dir().join(format!("tessera-render-{}", std::process::id()));
     let rt = tokio::runtime::Runtime::new()?;
-    let result = rt.block_on(render_via_local_farm(&a, &data));
+    let result = rt.block_on(tessera_server::local::with_local_farm(&data, a.threads, |c| submit_and_fetch(&a, c)));
     let _ = std::fs::remove_dir_all(&data);
     result
-}
-
-async fn render_via_local_farm(a: &RenderArgs, data: &Path) -> anyhow::Result<()> {
-    tessera_server::local::with_local_farm(data, a.threads, |c| submit_and_fetch(a, c)).await
 }
 
 async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> {

@@ -1,8 +1,7 @@
 //! `/v1/jobs`: submit, list, read, cancel, and the images of a job.
 use super::validate::job_config;
 use crate::error::{AppError, Json};
-use crate::state::{AppState, encode_job_exr, job_status};
-use crate::{image, output};
+use crate::state::{AppState, JobImage, job_status};
 use axum::extract::{Path, Query, State};
 use axum::http::{StatusCode, header};
 use axum::response::IntoResponse;
@@ -78,31 +77,22 @@ pub async fn image_exr(State(st): State<AppState>, Path(id): Path<String>) -> Re
     if let Some(bytes) = st.images.lock().expect("lock").get(&id).cloned() {
         return Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes.as_ref().clone()));
     }
-    let st2 = st.clone();
-    let bytes = tokio::task::spawn_blocking(move || {
-        let s = st2.scheduler.lock().expect("lock");
-        let job = s.job(&id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
-        encode_job_exr(job, st2.now()).map_err(AppError::internal)
-    })
-    .await
-    .map_err(AppError::internal)??;
+    let snapshot = snapshot(&st, &id)?;
+    let bytes = tokio::task::spawn_blocking(move || snapshot.encode_exr()).await.map_err(AppError::internal)?.map_err(AppError::internal)?;
     Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes))
+}
+
+fn snapshot(st: &AppState, id: &str) -> Result<JobImage, AppError> {
+    let s = st.scheduler.lock().expect("lock");
+    let job = s.job(id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
+    Ok(JobImage::of(job, st.now()))
 }
 
 /// An sRGB PNG preview of the current merge.
 #[utoipa::path(get, path = "/v1/jobs/{id}/preview.png", tag = "jobs", params(("id" = String, Path)),
     responses((status = 200, content_type = "image/png"), (status = 404, body = Problem)))]
 pub async fn preview_png(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
-    let (w, h, frame) = {
-        let s = st.scheduler.lock().expect("lock");
-        let job = s.job(&id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
-        (job.cfg.params.width, job.cfg.params.height, job.frame())
-    };
-    let png = tokio::task::spawn_blocking(move || {
-        let layers = image::layers(w, h, &frame);
-        output::encode_png_preview(layers.width, layers.height, &layers.rgb)
-    })
-    .await
-    .map_err(AppError::internal)?;
+    let snapshot = snapshot(&st, &id)?;
+    let png = tokio::task::spawn_blocking(move || snapshot.encode_png()).await.map_err(AppError::internal)?;
     Ok(([(header::CONTENT_TYPE, "image/png"), (header::CACHE_CONTROL, "no-store")], png))
 }

@@ -114,8 +114,8 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, body: By
     };
     let t0 = std::time::Instant::now();
     let outcome = st.scheduler.lock().expect("lock").complete(&id, sums, st.now());
-    st.0.settle().await;
     st.counters.merge_nanos.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
+    st.0.settle().await;
     match outcome {
         Ok(Accepted { job_id, merged, job_finished }) => {
             if merged {
