@@ -99,6 +99,19 @@ pub struct Job {
     /// Why the job failed, or how it ended.
     pub message: Option<String>,
     pub created_unix_ms: u64,
+    /// Workers that failed units of this job (leases expired, malformed results); those at the
+    /// coordinator's limit (`--max-failures`) get no more of its units.
+    #[serde(default)]
+    pub worker_failures: Vec<WorkerFailures>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct WorkerFailures {
+    pub worker_id: String,
+    pub name: String,
+    pub failures: u32,
+    /// True once the worker is kept off the job.
+    pub blocked: bool,
 }
 
 /// `GET /v1/jobs`: newest first.

@@ -75,11 +75,13 @@ const SHUTDOWN_GRACE: Duration = Duration::from_secs(3);
 /// `SHUTDOWN_GRACE`); a background task expires leases and time limits meanwhile.
 pub async fn run(listener: tokio::net::TcpListener, state: AppState, shutdown: impl std::future::Future<Output = ()> + Send + 'static) -> std::io::Result<()> {
     let ticker = tokio::spawn(tick_forever(state.clone()));
+    let checkpointer = tokio::spawn(checkpoint_forever(state.clone()));
     let (stopping_tx, mut stopping) = tokio::sync::watch::channel(false);
     let signal = async move {
         shutdown.await;
         let _ = stopping_tx.send(true);
     };
+    let state_for_exit = state.clone();
     let serve = axum::serve(listener, app(state)).with_graceful_shutdown(signal);
     let result = tokio::select! {
         r = serve => r,
@@ -89,7 +91,25 @@ pub async fn run(listener: tokio::net::TcpListener, state: AppState, shutdown: i
         } => Ok(()),
     };
     ticker.abort();
+    checkpointer.abort();
+    // What merged since the last checkpoint need not be rendered again after a restart.
+    let st = state_for_exit;
+    match tokio::task::spawn_blocking(move || st.checkpoint()).await {
+        Ok(Err(e)) => tracing::error!("the last checkpoint failed: {e:#}"),
+        Ok(Ok(n)) if n > 0 => tracing::info!(jobs = n, "state checkpointed"),
+        _ => {}
+    }
     result
+}
+
+async fn checkpoint_forever(state: AppState) {
+    while let Some(pause) = state.checkpoint_interval() {
+        tokio::time::sleep(pause).await;
+        let st = state.clone();
+        if let Ok(Err(e)) = tokio::task::spawn_blocking(move || st.checkpoint()).await {
+            tracing::error!("checkpoint failed (jobs stay in memory; retrying): {e:#}");
+        }
+    }
 }
 
 async fn tick_forever(state: AppState) {

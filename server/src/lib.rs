@@ -7,6 +7,7 @@
 //! - [`local`]: a coordinator and a worker in one process (`tessera render`, benchmarks).
 //! - [`client`]: a small client of the coordinator's API.
 //! - [`scheduler`]: the clock-free state machine of jobs, units, leases and workers.
+//! - [`store`], [`persist`]: durable job state (redb + checkpoint files) and resuming from it.
 //! - [`app`], [`routes`], [`state`], [`error`], [`scenes`]: the axum coordinator —
 //!   `app(state) -> Router`, handlers grouped by resource, problem+json errors, the scene store.
 pub mod app;
@@ -17,7 +18,9 @@ pub mod error;
 pub mod image;
 pub mod local;
 pub mod output;
+pub mod persist;
 pub mod routes;
 pub mod scenes;
 pub mod scheduler;
 pub mod state;
+pub mod store;

@@ -11,7 +11,8 @@ where
     F: FnOnce(Coordinator) -> Fut,
     Fut: std::future::Future<Output = anyhow::Result<T>>,
 {
-    let state = AppState::new(Config::new(data.to_path_buf()))?;
+    // The farm lives and dies with this process: nothing to resume, so no checkpoints.
+    let state = AppState::new(Config { checkpoint_ms: None, ..Config::new(data.to_path_buf()) })?;
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let url = format!("http://{}", listener.local_addr()?);
     let (stop_server, server_stopped) = tokio::sync::oneshot::channel::<()>();

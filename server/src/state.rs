@@ -3,12 +3,13 @@ use crate::image;
 use crate::output::{self, MetaValue};
 use crate::scenes::{SceneStore, write_atomically};
 use crate::scheduler::{JobRun, Scheduler};
-use std::collections::HashMap;
+use crate::store::Store;
+use anyhow::Context;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
-use tessera_proto::{Job, JobState, Progress};
+use tessera_proto::{Job, JobState, Progress, WorkerFailures};
 use tessera_worker::tracer::PixelSums;
 use tokio::sync::broadcast;
 
@@ -22,6 +23,11 @@ pub struct Config {
     pub client_token: Option<String>,
     /// Bearer token for workers (register, lease, heartbeat, result, scene data).
     pub worker_token: Option<String>,
+    /// Milliseconds between checkpoints of job state to `data_dir` (see `crate::persist`);
+    /// None keeps jobs in memory only (an in-process farm that cannot outlive its process).
+    pub checkpoint_ms: Option<u64>,
+    /// Units of one job a worker may fail before it is kept off that job.
+    pub max_failures: u32,
 }
 
 impl Config {
@@ -33,6 +39,8 @@ impl Config {
             max_triangles: 5_000_000,
             client_token: None,
             worker_token: None,
+            checkpoint_ms: Some(1000),
+            max_failures: Scheduler::DEFAULT_MAX_FAILURES,
         }
     }
 }
@@ -44,14 +52,19 @@ pub struct Counters {
     pub results_malformed: AtomicU64,
     pub leases_granted: AtomicU64,
     pub merge_nanos: AtomicU64,
+    pub checkpoint_failures: AtomicU64,
 }
 
 pub struct Shared {
     pub config: Config,
     pub scheduler: Mutex<Scheduler>,
     pub scenes: SceneStore,
-    /// Final EXRs of finished jobs.
-    pub images: Mutex<HashMap<String, Arc<Vec<u8>>>>,
+    /// Durable job state; None when `Config::checkpoint_ms` is None.
+    pub store: Option<Store>,
+    pub(crate) persist_lock: Mutex<()>,
+    pub(crate) checkpoint_cost: Mutex<std::time::Duration>,
+    /// Why the last checkpoint failed (cleared by the next that succeeds); shown by /healthz.
+    pub last_checkpoint_error: Mutex<Option<String>>,
     /// Ids of jobs whose status changed (for SSE).
     pub events: broadcast::Sender<String>,
     pub counters: Counters,
@@ -73,22 +86,38 @@ impl std::ops::Deref for AppState {
 }
 
 impl AppState {
-    pub fn new(config: Config) -> std::io::Result<AppState> {
-        std::fs::create_dir_all(config.data_dir.join("jobs"))?;
+    /// Opens the data directory; with checkpoints on, resumes every stored job.
+    pub fn new(config: Config) -> anyhow::Result<AppState> {
+        let jobs_dir = config.data_dir.join("jobs");
+        std::fs::create_dir_all(&jobs_dir).with_context(|| format!("creating {}", jobs_dir.display()))?;
         let scenes = SceneStore::open(config.data_dir.join("scenes"), config.max_triangles)?;
-        let scheduler = Mutex::new(Scheduler::new(config.lease_timeout_ms));
+        let store = config.checkpoint_ms.map(|_| Store::open(&config.data_dir)).transpose()?;
+        let epoch = store.as_ref().map(Store::next_boot).transpose()?.unwrap_or(0);
+        let mut scheduler = Scheduler::with_epoch(config.lease_timeout_ms, config.max_failures, epoch);
+        let finished = match &store {
+            Some(store) => crate::persist::restore(store, &mut scheduler, 0)?,
+            None => Vec::new(),
+        };
         let (events, _) = broadcast::channel(1024);
-        Ok(AppState(Arc::new(Shared {
+        let state = AppState(Arc::new(Shared {
             config,
-            scheduler,
+            scheduler: Mutex::new(scheduler),
             scenes,
-            images: Mutex::new(HashMap::new()),
+            store,
+            persist_lock: Mutex::new(()),
+            checkpoint_cost: Mutex::new(std::time::Duration::ZERO),
+            last_checkpoint_error: Mutex::new(None),
             events,
             counters: Counters::default(),
             work_available: tokio::sync::Notify::new(),
             start: Instant::now(),
             next_job: AtomicU64::new(0),
-        })))
+        }));
+        // A crash between a job's last checkpoint and its EXR leaves the image to write again.
+        for id in finished.iter().filter(|id| !state.image_path(id).exists()) {
+            state.finalize(id);
+        }
+        Ok(state)
     }
 }
 
@@ -119,8 +148,16 @@ impl Shared {
         }
     }
 
-    /// Writes a finished job's EXR (memory and `DATA/jobs/<id>.exr`).
+    /// Where a finished job's EXR is kept.
+    pub fn image_path(&self, job_id: &str) -> PathBuf {
+        self.config.data_dir.join("jobs").join(format!("{job_id}.exr"))
+    }
+
+    /// Makes a finished job durable, then writes its EXR to `DATA/jobs/<id>.exr`.
     pub fn finalize(&self, job_id: &str) {
+        if let Err(e) = self.checkpoint() {
+            tracing::error!(job = job_id, "checkpointing the finished job failed (it stays in memory, retried): {e:#}");
+        }
         let snapshot = {
             let sched = self.scheduler.lock().expect("lock");
             let Some(job) = sched.job(job_id) else { return };
@@ -136,10 +173,9 @@ impl Shared {
                 return;
             }
         };
-        if let Err(e) = write_atomically(&self.config.data_dir.join("jobs").join(format!("{job_id}.exr")), &bytes) {
-            tracing::error!(job = job_id, "writing the final image failed: {e}");
+        if let Err(e) = write_atomically(&self.image_path(job_id), &bytes) {
+            tracing::error!(job = job_id, "writing the final image failed (it is encoded on request instead): {e}");
         }
-        self.images.lock().expect("lock").insert(job_id.to_string(), Arc::new(bytes));
         tracing::info!(job = job_id, "job done");
     }
 }
@@ -180,15 +216,15 @@ fn exr_meta(job: &JobRun, now: u64) -> Vec<(String, MetaValue)> {
         ("tessera.estimator".into(), MetaValue::Text(p.estimator.clone())),
         ("tessera.sampler".into(), MetaValue::Text(p.sampler.clone())),
         ("tessera.effects".into(), MetaValue::Text(job.cfg.effects.join(","))),
-        ("tessera.dropped_samples".into(), MetaValue::Text(job.dropped.to_string())),
-        ("tessera.max_sample_weight".into(), MetaValue::Double(job.max_weight)),
+        ("tessera.dropped_samples".into(), MetaValue::Text(job.dropped().to_string())),
+        ("tessera.max_sample_weight".into(), MetaValue::Double(job.max_weight())),
         ("tessera.render_time_s".into(), MetaValue::Double(job.elapsed_ms(now) as f64 / 1000.0)),
         ("tessera.noise".into(), MetaValue::Double(job.noise().unwrap_or(0.0))),
     ]
 }
 
 /// The client's view of a job.
-pub fn job_status(job: &JobRun, now: u64, workers: u32) -> Job {
+pub fn job_status(job: &JobRun, now: u64, workers: u32, max_failures: u32) -> Job {
     let elapsed_ms = job.elapsed_ms(now);
     let elapsed_s = elapsed_ms as f64 / 1000.0;
     let done = job.samples_done();
@@ -219,10 +255,15 @@ pub fn job_status(job: &JobRun, now: u64, workers: u32) -> Job {
         workers,
         effects: job.cfg.effects.clone(),
         history: job.history.iter().map(|r| [r[0], r[1], if r[2].is_finite() { r[2] } else { 0.0 }]).collect(),
-        dropped_samples: job.dropped,
-        max_sample_weight: job.max_weight,
+        dropped_samples: job.dropped(),
+        max_sample_weight: job.max_weight(),
         message: job.message.clone(),
         created_unix_ms: job.cfg.created_unix_ms,
+        worker_failures: job
+            .failures
+            .iter()
+            .map(|(id, f)| WorkerFailures { worker_id: id.clone(), name: f.name.clone(), failures: f.count, blocked: f.count >= max_failures })
+            .collect(),
     }
 }
 

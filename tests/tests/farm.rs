@@ -1,75 +1,11 @@
 //! The distributed path end to end: a real coordinator process, real worker processes.
+use crate::cluster::Farm;
 use crate::harness::{temp_dir, tessera_bin};
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 use tessera_proto::{Job, JobRequest, JobState};
 use tessera_server::client::Coordinator;
 use tessera_server::output::decode_exr;
-
-/// A child process killed when dropped.
-struct Proc(Child);
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-struct Farm {
-    url: String,
-    _coordinator: Proc,
-    workers: Vec<Proc>,
-    worker_token: Option<String>,
-}
-
-impl Farm {
-    fn start(name: &str, workers: usize) -> Farm {
-        Farm::start_with(name, workers, None)
-    }
-
-    /// With `tokens` = (client, worker), the coordinator requires them and workers send theirs.
-    fn start_with(name: &str, workers: usize, tokens: Option<(&str, &str)>) -> Farm {
-        let data = temp_dir(name);
-        let mut cmd = Command::new(tessera_bin());
-        cmd.args(["serve", "--listen", "127.0.0.1:0", "--lease-timeout", "5", "--data"]).arg(&data);
-        if let Some((c, w)) = tokens {
-            cmd.env("TESSERA_CLIENT_TOKEN", c).env("TESSERA_WORKER_TOKEN", w);
-        }
-        let mut child = cmd
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start coordinator");
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
-        let url = line.trim().strip_prefix("listening on ").expect("address line").to_string();
-        let worker_token = tokens.map(|t| t.1.to_string());
-        let mut farm = Farm { url, _coordinator: Proc(child), workers: Vec::new(), worker_token };
-        for _ in 0..workers {
-            farm.add_worker();
-        }
-        farm
-    }
-
-    fn add_worker(&mut self) {
-        let mut cmd = Command::new(tessera_bin());
-        if let Some(t) = &self.worker_token {
-            cmd.env("TESSERA_WORKER_TOKEN", t);
-        }
-        let child = cmd
-            .args(["work", "--threads", "1", "--coordinator", &self.url])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start worker");
-        self.workers.push(Proc(child));
-    }
-
-    fn client(&self) -> Coordinator {
-        Coordinator::new(&self.url, None)
-    }
-}
 
 fn request(spp: Option<u32>) -> JobRequest {
     JobRequest {
@@ -214,9 +150,9 @@ fn cancel_frees_workers_within_a_second() {
 #[test]
 fn with_tokens_workers_and_clients_get_in_with_theirs_only() {
     let rt = rt();
-    let farm = Farm::start_with("tokens", 1, Some(("c-token", "w-token")));
+    let farm = Farm::start_with("tokens", 1, Some(("c-token", "w-token")), &[]);
     rt.block_on(async {
-        let anonymous = farm.client().submit(&request(Some(8))).await.unwrap_err();
+        let anonymous = Coordinator::new(&farm.url, None).submit(&request(Some(8))).await.unwrap_err();
         assert!(anonymous.to_string().contains("Unauthorized"), "{anonymous}");
         let c = Coordinator::new(&farm.url, Some("c-token".into()));
         let job = c.submit(&request(Some(8))).await.unwrap();

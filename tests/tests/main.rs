@@ -1,6 +1,8 @@
 //! End-to-end tests: one binary, one module per capability.
+mod cluster;
 mod estimators;
 mod farm;
+mod faults;
 mod harness;
 mod mitsuba;
 mod render_cli;

@@ -8,12 +8,20 @@ pub struct ServeArgs {
     /// Address to listen on (port 0 picks a free port; the chosen address is printed).
     #[arg(long, env = "TESSERA_LISTEN", default_value = "127.0.0.1:7878")]
     pub listen: String,
-    /// Directory for scenes and finished images.
+    /// Directory for the job store, checkpoints, scenes and finished images.
     #[arg(long, env = "TESSERA_DATA", default_value = "tessera-data")]
     pub data: PathBuf,
     /// Seconds a lease lives without a heartbeat before its unit is given to another worker.
     #[arg(long, default_value_t = 10.0)]
     pub lease_timeout: f64,
+    /// Seconds between checkpoints of job state to the data directory (a restarted coordinator
+    /// resumes from the last one; merges after it are rendered again). 0 keeps jobs in memory only.
+    #[arg(long, env = "TESSERA_CHECKPOINT_INTERVAL", default_value_t = 1.0)]
+    pub checkpoint_interval: f64,
+    /// Units of one job a worker may fail (lease expired, malformed result) before it gets no
+    /// more units of that job.
+    #[arg(long, default_value_t = 3)]
+    pub max_failures: u32,
     /// Largest accepted scene upload, in MiB.
     #[arg(long, default_value_t = 256)]
     pub max_scene_mib: usize,
@@ -33,7 +41,11 @@ pub struct ServeArgs {
 
 pub fn run(a: ServeArgs) -> anyhow::Result<()> {
     anyhow::ensure!(a.lease_timeout > 0.0 && a.lease_timeout.is_finite(), "--lease-timeout must be > 0");
+    anyhow::ensure!(a.checkpoint_interval >= 0.0 && a.checkpoint_interval.is_finite(), "--checkpoint-interval must be >= 0");
+    anyhow::ensure!(a.max_failures >= 1, "--max-failures must be at least 1");
     let mut config = Config::new(a.data.clone());
+    config.checkpoint_ms = (a.checkpoint_interval > 0.0).then_some((a.checkpoint_interval * 1000.0) as u64);
+    config.max_failures = a.max_failures;
     config.lease_timeout_ms = (a.lease_timeout * 1000.0) as u64;
     config.max_scene_bytes = a.max_scene_mib << 20;
     config.max_triangles = a.max_triangles;

@@ -7,10 +7,14 @@ use std::fmt::Write;
 use std::sync::atomic::Ordering;
 use tessera_proto::JobState;
 
-/// Liveness: answers 200 "ok" while the coordinator runs.
+/// Liveness: answers 200 while the coordinator runs — "ok", or "ok; checkpoints failing: …" when
+/// job state cannot be written (the coordinator still serves; jobs stay in memory meanwhile).
 #[utoipa::path(get, path = "/healthz", tag = "health", responses((status = 200, description = "alive")))]
-pub async fn healthz() -> &'static str {
-    "ok"
+pub async fn healthz(State(st): State<AppState>) -> String {
+    match st.last_checkpoint_error.lock().expect("lock").as_deref() {
+        Some(e) => format!("ok; checkpoints failing: {e}"),
+        None => "ok".into(),
+    }
 }
 
 /// Counters and gauges in Prometheus text format.
@@ -23,6 +27,7 @@ pub async fn metrics(State(st): State<AppState>) -> impl IntoResponse {
         ("tessera_results_stale_total", "Late or duplicate results ignored", c.results_stale.load(Ordering::Relaxed)),
         ("tessera_results_malformed_total", "Results refused as malformed", c.results_malformed.load(Ordering::Relaxed)),
         ("tessera_leases_granted_total", "Units leased to workers", c.leases_granted.load(Ordering::Relaxed)),
+        ("tessera_checkpoint_failures_total", "Checkpoints of job state that failed", c.checkpoint_failures.load(Ordering::Relaxed)),
     ];
     for (name, help, v) in counters {
         let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} counter\n{name} {v}");

@@ -19,8 +19,14 @@ pub async fn create(State(st): State<AppState>, Json(req): Json<JobRequest>) -> 
     let job = {
         let mut s = st.scheduler.lock().expect("lock");
         s.submit(cfg);
-        job_status(s.job(&id).expect("just submitted"), st.now(), 0)
+        job_status(s.job(&id).expect("just submitted"), st.now(), 0, s.max_failures())
     };
+    // Accepted means durable: a job the store could not take is not accepted at all.
+    let st2 = st.clone();
+    if let Err(e) = tokio::task::spawn_blocking(move || st2.checkpoint()).await.map_err(AppError::internal)? {
+        st.scheduler.lock().expect("lock").forget(&id);
+        return Err(AppError::new(StatusCode::SERVICE_UNAVAILABLE, format!("the job could not be stored, so it was not accepted: {e:#}")));
+    }
     st.notify(&id);
     st.work_available.notify_waiters();
     tracing::info!(job = %id, scene = %scene.id, "job accepted");
@@ -45,7 +51,7 @@ pub async fn list(State(st): State<AppState>, Query(q): Query<ListQuery>) -> axu
     if q.before.is_some() {
         iter.next();
     }
-    let page: Vec<Job> = iter.take(limit + 1).map(|j| job_status(j, now, s.workers_on(&j.cfg.id))).collect();
+    let page: Vec<Job> = iter.take(limit + 1).map(|j| job_status(j, now, s.workers_on(&j.cfg.id), s.max_failures())).collect();
     let next = (page.len() > limit).then(|| page[limit - 1].id.clone());
     axum::Json(JobList { jobs: page.into_iter().take(limit).collect(), next })
 }
@@ -59,13 +65,17 @@ pub async fn get(State(st): State<AppState>, Path(id): Path<String>) -> Result<a
 pub fn status_of(st: &AppState, id: &str) -> Result<Job, AppError> {
     let s = st.scheduler.lock().expect("lock");
     let job = s.job(id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
-    Ok(job_status(job, st.now(), s.workers_on(id)))
+    Ok(job_status(job, st.now(), s.workers_on(id), s.max_failures()))
 }
 
 /// Cancel a job; its workers are told within one heartbeat.
 #[utoipa::path(delete, path = "/v1/jobs/{id}", tag = "jobs", params(("id" = String, Path)), responses((status = 200, body = Job), (status = 404, body = Problem)))]
 pub async fn cancel(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<Job>, AppError> {
     st.scheduler.lock().expect("lock").cancel(&id, st.now()).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
+    let st2 = st.clone();
+    if let Ok(Err(e)) = tokio::task::spawn_blocking(move || st2.checkpoint()).await {
+        tracing::error!(job = %id, "the cancel is not yet durable (retried at the next checkpoint): {e:#}");
+    }
     st.notify(&id);
     get(State(st), Path(id)).await
 }
@@ -74,8 +84,9 @@ pub async fn cancel(State(st): State<AppState>, Path(id): Path<String>) -> Resul
 #[utoipa::path(get, path = "/v1/jobs/{id}/image.exr", tag = "jobs", params(("id" = String, Path)),
     responses((status = 200, content_type = "image/x-exr"), (status = 404, body = Problem)))]
 pub async fn image_exr(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
-    if let Some(bytes) = st.images.lock().expect("lock").get(&id).cloned() {
-        return Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes.as_ref().clone()));
+    let done = st.scheduler.lock().expect("lock").job(&id).is_some_and(|j| j.state == tessera_proto::JobState::Done);
+    if done && let Ok(bytes) = tokio::fs::read(st.image_path(&id)).await {
+        return Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes));
     }
     let snapshot = snapshot(&st, &id)?;
     let bytes = tokio::task::spawn_blocking(move || snapshot.encode_exr()).await.map_err(AppError::internal)?.map_err(AppError::internal)?;

@@ -1,7 +1,8 @@
 //! In-process HTTP tests of the coordinator's API through `tower::ServiceExt::oneshot`: the shared
 //! harness. The cases are in `tests_jobs.rs` (submit, validate, list, cancel, events),
 //! `tests_scenes.rs`, `tests_workers.rs` (the worker protocol), `tests_images.rs` (images, jobs
-//! that end on their own) and `tests_service.rs` (health, metrics, OpenAPI, routing).
+//! that end on their own), `tests_service.rs` (health, metrics, OpenAPI, routing) and
+//! `tests_durability.rs` (restarts, corrupt checkpoints, a full disk).
 use crate::app::app;
 use crate::state::{AppState, Config};
 use axum::Router;
@@ -17,7 +18,7 @@ use tower::ServiceExt;
 pub(super) struct Api {
     router: Router,
     pub state: AppState,
-    dir: PathBuf,
+    pub(super) dir: PathBuf,
 }
 
 impl Api {
@@ -28,10 +29,23 @@ impl Api {
     pub fn with_config(name: &str, tweak: impl FnOnce(&mut Config)) -> Api {
         let dir = std::env::temp_dir().join(format!("tessera-api-{}-{}", std::process::id(), name));
         let _ = std::fs::remove_dir_all(&dir);
+        Api::open(dir, tweak)
+    }
+
+    /// A coordinator on an existing data directory.
+    pub fn open(dir: PathBuf, tweak: impl FnOnce(&mut Config)) -> Api {
         let mut config = Config::new(dir.clone());
         tweak(&mut config);
         let state = AppState::new(config).expect("coordinator state");
         Api { router: app(state.clone()), state, dir }
+    }
+
+    /// Stops this coordinator as a crash would (no final checkpoint) and starts another on the
+    /// same data directory.
+    pub fn crash_and_reopen(mut self, tweak: impl FnOnce(&mut Config)) -> Api {
+        let dir = std::mem::take(&mut self.dir);
+        drop(self);
+        Api::open(dir, tweak)
     }
 
     pub fn dir(&self) -> &std::path::Path {
@@ -90,7 +104,9 @@ impl Api {
 
 impl Drop for Api {
     fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
+        if !self.dir.as_os_str().is_empty() {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
     }
 }
 

@@ -5,9 +5,9 @@
 //! early arrivals, so its f64 sums — and the image — do not depend on who rendered what, when.
 //! A noise target is decided on that same order (after merging batch k, is the tile's relMSE at
 //! or below the target?), so it is deterministic too.
-use crate::image::rel_mse;
-use std::cell::Cell;
-use std::collections::{BTreeMap, BTreeSet};
+use super::tile::{NoiseStop, TileRun};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use tessera_proto::{JobRequest, JobState, PartialSums, RenderParams, TileRect};
 use tessera_worker::tracer::PixelSums;
 
@@ -17,8 +17,9 @@ pub const MIN_SPP_FOR_NOISE_STOP: u32 = 16;
 const MAX_HISTORY: usize = 512;
 const HISTORY_EVERY_MS: u64 = 100;
 
-/// A validated job, as accepted.
-#[derive(Clone, Debug)]
+/// A validated job, as accepted. Serialized into the coordinator's store (`crate::store`), so
+/// a restarted coordinator resumes with exactly the unit boundaries it promised.
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct JobConfig {
     pub id: String,
     pub scene_id: String,
@@ -36,46 +37,11 @@ pub struct JobConfig {
     pub created_unix_ms: u64,
 }
 
-pub struct TileRun {
-    pub rect: TileRect,
-    batches: u32,
-    next_new: u32,
-    requeued: BTreeSet<u32>,
-    pub merged: Vec<PixelSums>,
-    merged_upto: u32,
-    pending: BTreeMap<u32, PartialSums>,
-    stop_at: Option<u32>,
-    /// Pixel-samples merged (including dropped ones).
-    merged_samples: u64,
-    /// relMSE of `merged`, computed lazily (None: not yet computed since the last merge).
-    rel_mse: Cell<Option<f64>>,
-}
-
-impl TileRun {
-    fn limit(&self) -> u32 {
-        self.stop_at.unwrap_or(self.batches)
-    }
-
-    pub fn next_issuable(&self) -> Option<u32> {
-        let requeued = self.requeued.first().copied().filter(|&b| b < self.limit());
-        let fresh = (self.next_new < self.limit()).then_some(self.next_new);
-        requeued.or(fresh)
-    }
-
-    fn complete(&self) -> bool {
-        self.merged_upto >= self.limit()
-    }
-
-    /// The tile's relMSE, None before anything is merged.
-    fn noise(&self) -> Option<f64> {
-        if self.merged_upto == 0 {
-            return None;
-        }
-        if self.rel_mse.get().is_none() {
-            self.rel_mse.set(Some(rel_mse(&self.merged)));
-        }
-        self.rel_mse.get()
-    }
+/// Units of one job a worker failed (lease expired, malformed result).
+#[derive(Clone, Debug, Default)]
+pub struct Failures {
+    pub name: String,
+    pub count: u32,
 }
 
 pub struct JobRun {
@@ -83,12 +49,17 @@ pub struct JobRun {
     pub seq: u64,
     pub state: JobState,
     pub tiles: Vec<TileRun>,
+    /// Render time spent before this coordinator started (restored from a checkpoint).
+    pub elapsed_before_ms: u64,
     pub started_ms: Option<u64>,
     pub finished_ms: Option<u64>,
     pub history: Vec<[f64; 3]>,
-    pub dropped: u64,
-    pub max_weight: f64,
     pub message: Option<String>,
+    /// Failures by worker id; a worker with too many is kept off the job.
+    pub failures: BTreeMap<String, Failures>,
+    /// Bumped on every change a checkpoint must record; `persisted_revision` is the one on disk.
+    pub(super) revision: u64,
+    pub(super) persisted_revision: u64,
 }
 
 impl JobRun {
@@ -98,22 +69,23 @@ impl JobRun {
         let mut tiles = Vec::new();
         for y0 in (0..h).step_by(t as usize) {
             for x0 in (0..w).step_by(t as usize) {
-                let rect = TileRect { x0, y0, w: t.min(w - x0), h: t.min(h - y0) };
-                tiles.push(TileRun {
-                    rect,
-                    batches,
-                    next_new: 0,
-                    requeued: BTreeSet::new(),
-                    merged: vec![PixelSums::default(); rect.pixel_count()],
-                    merged_upto: 0,
-                    pending: BTreeMap::new(),
-                    stop_at: None,
-                    merged_samples: 0,
-                    rel_mse: Cell::new(None),
-                });
+                tiles.push(TileRun::new(TileRect { x0, y0, w: t.min(w - x0), h: t.min(h - y0) }, batches));
             }
         }
-        JobRun { cfg, seq, state: JobState::Queued, tiles, started_ms: None, finished_ms: None, history: Vec::new(), dropped: 0, max_weight: 0.0, message: None }
+        JobRun {
+            cfg,
+            seq,
+            state: JobState::Queued,
+            tiles,
+            elapsed_before_ms: 0,
+            started_ms: None,
+            finished_ms: None,
+            history: Vec::new(),
+            message: None,
+            failures: BTreeMap::new(),
+            revision: 1,
+            persisted_revision: 0,
+        }
     }
 
     pub fn samples_of(&self, batch: u32) -> [u32; 2] {
@@ -130,71 +102,52 @@ impl JobRun {
     }
 
     pub fn mark_issued(&mut self, tile: usize, batch: u32, now: u64) {
-        let t = &mut self.tiles[tile];
-        if !t.requeued.remove(&batch) {
-            debug_assert_eq!(batch, t.next_new);
-            t.next_new += 1;
-        }
+        self.tiles[tile].issue(batch);
         if self.state == JobState::Queued {
             self.state = JobState::Running;
             self.started_ms = Some(now);
+            self.revision += 1;
         }
     }
 
     pub fn requeue(&mut self, tile: usize, batch: u32) {
         if !self.state.is_final() {
-            self.tiles[tile].requeued.insert(batch);
+            self.tiles[tile].requeue(batch);
         }
     }
 
     /// Whether the batch is still wanted (not past a noise stop, not merged or buffered).
     pub fn wants(&self, tile: usize, batch: u32) -> bool {
-        let t = &self.tiles[tile];
-        !self.state.is_final() && batch < t.limit() && batch >= t.merged_upto && !t.pending.contains_key(&batch)
+        !self.state.is_final() && self.tiles[tile].wants(batch)
+    }
+
+    /// Counts a failed unit against a worker; true when it has now failed `limit` times.
+    pub fn count_failure(&mut self, worker: &str, name: &str, limit: u32) -> bool {
+        let f = self.failures.entry(worker.to_string()).or_insert_with(|| Failures { name: name.to_string(), count: 0 });
+        f.count += 1;
+        f.count == limit
+    }
+
+    pub fn is_blocked(&self, worker: &str, limit: u32) -> bool {
+        self.failures.get(worker).is_some_and(|f| f.count >= limit)
     }
 
     /// Buffers a batch's sums and merges every batch now contiguous. Returns batches merged.
     pub fn accept(&mut self, tile: usize, batch: u32, sums: PartialSums, now: u64) -> u32 {
-        self.dropped += sums.dropped;
-        self.max_weight = self.max_weight.max(sums.max_weight);
-        self.tiles[tile].pending.insert(batch, sums);
-        let mut merged = 0;
-        loop {
-            let t = &mut self.tiles[tile];
-            let upto = t.merged_upto;
-            let Some(next) = t.pending.remove(&upto) else { break };
-            self.merge_next(tile, next);
-            merged += 1;
+        let stop = self.cfg.noise_target.map(|target| NoiseStop { target, min_spp: MIN_SPP_FOR_NOISE_STOP.min(self.cfg.spp) });
+        let merged = self.tiles[tile].accept(batch, sums, stop);
+        if merged > 0 {
+            self.revision += 1;
         }
         if self.tiles.iter().all(TileRun::complete) {
             self.finish(JobState::Done, now, None);
         }
         // A history row costs a pass over every tile's noise: at most one per HISTORY_EVERY_MS.
-        let due = self.history.last().is_none_or(|r| now >= self.started_ms.unwrap_or(0) + (r[0] * 1000.0) as u64 + HISTORY_EVERY_MS);
+        let due = self.history.last().is_none_or(|r| self.elapsed_ms(now) >= (r[0] * 1000.0) as u64 + HISTORY_EVERY_MS);
         if merged > 0 && (due || self.state.is_final()) {
             self.record_history(now);
         }
         merged
-    }
-
-    fn merge_next(&mut self, tile: usize, sums: PartialSums) {
-        let per_pixel = (sums.samples[1] - sums.samples[0]) as u64;
-        let target = self.cfg.noise_target;
-        let t = &mut self.tiles[tile];
-        for (acc, p) in t.merged.iter_mut().zip(&sums.pixels) {
-            acc.merge(&PixelSums { sum: p.sum, sum_sq: p.sum_sq, sum_lum_sq: p.sum_lum_sq, count: p.count });
-        }
-        t.merged_upto += 1;
-        t.merged_samples += per_pixel * t.rect.pixel_count() as u64;
-        t.rel_mse.set(None);
-        let spp_merged = sums.samples[1];
-        if let Some(target) = target {
-            let may_stop = t.stop_at.is_none() && spp_merged >= MIN_SPP_FOR_NOISE_STOP.min(self.cfg.spp);
-            if may_stop && t.noise().is_some_and(|rel| rel <= target) {
-                t.stop_at = Some(t.merged_upto);
-                t.pending.clear();
-            }
-        }
     }
 
     pub fn finish(&mut self, state: JobState, now: u64, message: Option<String>) {
@@ -202,16 +155,15 @@ impl JobRun {
             return;
         }
         self.state = state;
+        self.started_ms.get_or_insert(now);
         self.finished_ms = Some(now);
         self.message = message;
-        for t in &mut self.tiles {
-            t.pending.clear();
-            t.requeued.clear();
-        }
+        self.revision += 1;
+        self.tiles.iter_mut().for_each(TileRun::drain);
     }
 
     fn record_history(&mut self, now: u64) {
-        let row = [self.elapsed_ms(now) as f64 / 1000.0, self.samples_done(), self.noise().unwrap_or(f64::NAN)];
+        let row = [self.elapsed_ms(now) as f64 / 1000.0, self.samples_done(), self.noise().unwrap_or(0.0)];
         self.history.push(row);
         if self.history.len() > MAX_HISTORY {
             // Thin evenly but keep the newest row.
@@ -230,6 +182,16 @@ impl JobRun {
         self.tiles.iter().map(|t| t.merged_samples).sum::<u64>() as f64 / self.pixel_count() as f64
     }
 
+    /// Non-finite samples dropped in the merged batches.
+    pub fn dropped(&self) -> u64 {
+        self.tiles.iter().map(|t| t.dropped).sum()
+    }
+
+    /// The largest sample weight in the merged batches.
+    pub fn max_weight(&self) -> f64 {
+        self.tiles.iter().map(|t| t.max_weight).fold(0.0, f64::max)
+    }
+
     /// Pixel-weighted mean of the tiles' relMSE over tiles with at least one merged batch.
     pub fn noise(&self) -> Option<f64> {
         let (mut acc, mut px) = (0.0, 0.0);
@@ -242,16 +204,18 @@ impl JobRun {
         (px > 0.0).then(|| acc / px)
     }
 
+    /// Render time: earlier coordinator lives plus this one's (downtime does not count).
     pub fn elapsed_ms(&self, now: u64) -> u64 {
-        match self.started_ms {
+        let here = match self.started_ms {
             Some(s) => self.finished_ms.unwrap_or(now).saturating_sub(s),
             None => 0,
-        }
+        };
+        self.elapsed_before_ms + here
     }
 
     /// Whether a time limit has run out.
     pub fn out_of_time(&self, now: u64) -> bool {
-        matches!((self.cfg.time_limit_ms, self.started_ms), (Some(l), Some(s)) if now >= s + l)
+        self.started_ms.is_some() && self.cfg.time_limit_ms.is_some_and(|l| self.elapsed_ms(now) >= l)
     }
 
     /// The whole frame of merged sums, for output.

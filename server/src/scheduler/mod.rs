@@ -8,13 +8,23 @@
 //!   refused unit returns to its tile's queue with the same sample range.
 //! - A result is accepted once: late (lease gone) and duplicate results are `Stale` and never
 //!   counted twice.
+//! - A worker that fails `max_failures` units of a job (leases expired, malformed results) gets
+//!   no more units of that job.
+//! - Ids of leases and workers carry the coordinator's `epoch` (its boot count), so an id from
+//!   before a restart never names something after it.
 //! - Jobs of higher priority go first; equal priorities share workers (fewest leases in flight
 //!   first), then first come, first served.
+mod durable;
 mod job;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_durable;
+mod tile;
 
-pub use job::{JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP};
+pub use durable::{JobCheckpoint, JobRecord, RestoredTile, TileCheckpoint, TileMark};
+pub use job::{Failures, JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP};
+pub use tile::TileRun;
 use std::collections::{BTreeMap, HashMap};
 use tessera_proto::{JobState, Lease, PartialSums};
 
@@ -62,12 +72,21 @@ pub struct Scheduler {
     next_lease: u64,
     next_worker: u64,
     lease_timeout_ms: u64,
+    max_failures: u32,
+    epoch: u64,
     /// Jobs that ended inside `tick` (time limits), for the caller to finalize.
     finished: Vec<String>,
 }
 
 impl Scheduler {
+    /// Failures of one worker on one job before it is kept off that job.
+    pub const DEFAULT_MAX_FAILURES: u32 = 3;
+
     pub fn new(lease_timeout_ms: u64) -> Scheduler {
+        Scheduler::with_epoch(lease_timeout_ms, Self::DEFAULT_MAX_FAILURES, 0)
+    }
+
+    pub fn with_epoch(lease_timeout_ms: u64, max_failures: u32, epoch: u64) -> Scheduler {
         Scheduler {
             jobs: BTreeMap::new(),
             by_id: HashMap::new(),
@@ -77,6 +96,8 @@ impl Scheduler {
             next_lease: 0,
             next_worker: 0,
             lease_timeout_ms,
+            max_failures: max_failures.max(1),
+            epoch,
             finished: Vec::new(),
         }
     }
@@ -87,7 +108,7 @@ impl Scheduler {
 
     pub fn register_worker(&mut self, name: &str, threads: u32, now: u64) -> String {
         self.next_worker += 1;
-        let id = format!("w{}", self.next_worker);
+        let id = format!("w{}-{}", self.epoch, self.next_worker);
         let rec = WorkerRec { name: name.to_string(), threads, last_seen: now, units_done: 0, failures: 0, current: None };
         self.workers.insert(id.clone(), rec);
         id
@@ -134,6 +155,7 @@ impl Scheduler {
         let pick = self
             .jobs
             .values()
+            .filter(|j| !j.is_blocked(worker, self.max_failures))
             .filter_map(|j| j.next_unit().map(|u| (j, u)))
             .min_by_key(|(j, _)| (-j.cfg.priority, in_flight.get(&j.seq).copied().unwrap_or(0), j.seq))
             .map(|(j, (tile, batch))| (j.seq, tile, batch));
@@ -141,7 +163,7 @@ impl Scheduler {
         let job = self.jobs.get_mut(&seq).expect("picked job exists");
         job.mark_issued(tile, batch, now);
         self.next_lease += 1;
-        let lease_id = format!("l{}-{}", self.next_lease, seq);
+        let lease_id = format!("l{}-{}-{}", self.epoch, self.next_lease, seq);
         let deadline = now + self.lease_timeout_ms;
         let rec = LeaseRec { job_seq: seq, tile, batch, worker: worker.to_string(), deadline };
         self.leases.insert(lease_id.clone(), rec);
@@ -206,6 +228,7 @@ impl Scheduler {
         }
         if let Some(p) = problem {
             job.requeue(l.tile, l.batch);
+            self.count_failure(&l);
             return Err(ResultError::Malformed(p));
         }
         let job_id = job.cfg.id.clone();
@@ -247,6 +270,7 @@ impl Scheduler {
                 w.current = None;
             }
             self.requeue(&l);
+            self.count_failure(&l);
         }
         let mut finished = Vec::new();
         for job in self.jobs.values_mut() {
@@ -266,6 +290,20 @@ impl Scheduler {
     /// Jobs that ended by their time limit since the last call (whichever call noticed it).
     pub fn take_finished(&mut self) -> Vec<String> {
         std::mem::take(&mut self.finished)
+    }
+
+    /// Counts a failed unit against its worker on that job (the blocklist).
+    fn count_failure(&mut self, l: &LeaseRec) {
+        let name = self.workers.get(&l.worker).map(|w| w.name.clone()).unwrap_or_default();
+        if let Some(job) = self.jobs.get_mut(&l.job_seq) {
+            if job.count_failure(&l.worker, &name, self.max_failures) {
+                tracing::warn!(job = %job.cfg.id, worker = %l.worker, %name, "worker failed {} units of this job: kept off it", self.max_failures);
+            }
+        }
+    }
+
+    pub fn max_failures(&self) -> u32 {
+        self.max_failures
     }
 
     fn requeue(&mut self, l: &LeaseRec) {

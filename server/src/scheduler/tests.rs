@@ -3,7 +3,7 @@ use tessera_proto::{JobRequest, RenderParams, WirePixel};
 
 const TIMEOUT: u64 = 1000;
 
-fn config(id: &str, spp: u32, priority: i32) -> JobConfig {
+pub(super) fn config(id: &str, spp: u32, priority: i32) -> JobConfig {
     JobConfig {
         id: id.into(),
         scene_id: "s".into(),
@@ -22,14 +22,14 @@ fn config(id: &str, spp: u32, priority: i32) -> JobConfig {
 }
 
 /// Sums for a unit whose every sample has radiance `v` (+ a per-batch wobble so order matters).
-fn sums(g: &Lease, v: f64) -> PartialSums {
+pub(super) fn sums(g: &Lease, v: f64) -> PartialSums {
     let n = (g.samples[1] - g.samples[0]) as f64;
     let x = v + g.samples[0] as f64 * 1e-3;
     let p = WirePixel { sum: [x * n; 3], sum_sq: [x * x * n + 1e-4; 3], sum_lum_sq: x * x * n, count: n as u64 };
     PartialSums { tile: g.tile, samples: g.samples, dropped: 0, max_weight: 1.0, pixels: vec![p; g.tile.pixel_count()] }
 }
 
-fn drain(s: &mut Scheduler, w: &str, now: u64) -> Vec<Lease> {
+pub(super) fn drain(s: &mut Scheduler, w: &str, now: u64) -> Vec<Lease> {
     std::iter::from_fn(|| s.lease(w, now).unwrap()).collect()
 }
 
