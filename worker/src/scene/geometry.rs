@@ -3,7 +3,7 @@ use super::SceneError;
 use crate::tracer::camera::Camera;
 use crate::tracer::light::Light;
 use crate::tracer::scene::Mesh;
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{DMat4, DVec3, Mat3, Mat4, Vec2, Vec3};
 use gltf::mesh::Mode;
 
 pub struct Parts {
@@ -12,35 +12,66 @@ pub struct Parts {
     pub lights: Vec<Light>,
 }
 
-/// Walks the default scene (or the first one) and flattens it into world space.
+/// Walks the default scene (or the first one) and flattens it into world space, in f64; a scene
+/// lying far from the origin (its centre farther than 4× its size) is then moved to the origin
+/// before rounding to f32 (see [`rebase_origin`]).
 pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize) -> Result<Parts, SceneError> {
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| SceneError::new("the file has no scene"))?;
     let mut parts = Parts { mesh: Mesh::default(), cameras: Vec::new(), lights: Vec::new() };
-    let mut stack: Vec<(gltf::Node, Mat4, usize)> = scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    let (mut positions, mut camera_worlds, mut light_worlds) = (Vec::new(), Vec::new(), Vec::new());
+    let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > 256 {
             return Err(SceneError::new(format!("node {}: hierarchy deeper than 256 levels", node.index())));
         }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
         if !world.is_finite() {
             return Err(SceneError::new(format!("node {}: transform is not finite", node.index())));
         }
         if let Some(mesh) = node.mesh() {
-            add_mesh(&mut parts.mesh, &mesh, world, buffers, material_count)?;
+            add_mesh(&mut parts.mesh, &mut positions, &mesh, world, buffers, material_count)?;
         }
         if let Some(cam) = node.camera()
             && let gltf::camera::Projection::Perspective(p) = cam.projection() {
-                parts.cameras.push(camera(&node, &cam, &p, world)?);
+                parts.cameras.push(camera(&node, &cam, &p, world.as_mat4())?);
+                camera_worlds.push(world);
             }
         if let Some(light) = node.light() {
-            parts.lights.push(punctual(&light, world)?);
+            parts.lights.push(punctual(&light, world.as_mat4())?);
+            light_worlds.push(world);
         }
         stack.extend(node.children().map(|c| (c, world, depth + 1)));
     }
+    let origin = rebase_origin(&positions);
+    let to_local = DMat4::from_translation(-origin);
+    parts.mesh.positions = positions.iter().map(|t| t.map(|p| (p - origin).as_vec3())).collect();
+    for (c, w) in parts.cameras.iter_mut().zip(camera_worlds) {
+        c.to_world = (to_local * w).as_mat4();
+    }
+    for (l, w) in parts.lights.iter_mut().zip(light_worlds) {
+        if let Light::Point { position, .. } | Light::Spot { position, .. } = l {
+            *position = (w.transform_point3(DVec3::ZERO) - origin).as_vec3();
+        }
+    }
     Ok(parts)
+}
+
+/// Where the tracer's origin goes: the centre of the geometry's bounding box when that lies
+/// farther than 4× the box's size from the world origin, else the world origin (scenes near it
+/// load exactly as written). f32 spacing at 1e5 is 8 mm, enough to merge a light with the
+/// ceiling 0.1 mm above it; subtracting the centre in f64 first keeps every millimetre. Images
+/// do not depend on where the scene sits, so nothing downstream sees the move.
+fn rebase_origin(positions: &[[DVec3; 3]]) -> DVec3 {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for p in positions.iter().flatten() {
+        (lo, hi) = (lo.min(*p), hi.max(*p));
+    }
+    let (centre, size) = ((lo + hi) * 0.5, (hi - lo).max_element());
+    let far = centre.abs().max_element() > 4.0 * size;
+    if positions.is_empty() || !far { DVec3::ZERO } else { centre }
 }
 
 fn camera(node: &gltf::Node, cam: &gltf::Camera, p: &gltf::camera::Perspective, world: Mat4) -> Result<Camera, SceneError> {
@@ -78,7 +109,17 @@ fn punctual(light: &gltf::khr_lights_punctual::Light, world: Mat4) -> Result<Lig
     })
 }
 
-fn add_mesh(out: &mut Mesh, mesh: &gltf::Mesh, world: Mat4, buffers: &[Vec<u8>], material_count: usize) -> Result<(), SceneError> {
+/// Appends the mesh's triangles to `out`, with their f64 world positions in `positions` (the
+/// caller rounds them to f32 into `out.positions`).
+fn add_mesh(
+    out: &mut Mesh,
+    positions64: &mut Vec<[DVec3; 3]>,
+    mesh: &gltf::Mesh,
+    world64: DMat4,
+    buffers: &[Vec<u8>],
+    material_count: usize,
+) -> Result<(), SceneError> {
+    let world = world64.as_mat4();
     let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
     // A mirroring transform flips the winding; swap two corners to keep front faces in front.
     let mirrored = Mat3::from_mat4(world).determinant() < 0.0;
@@ -118,8 +159,8 @@ fn add_mesh(out: &mut Mesh, mesh: &gltf::Mesh, world: Mat4, buffers: &[Vec<u8>],
         let triangles = triangle_list(prim.mode(), &indices).ok_or_else(|| SceneError::new(at("not a triangle mode (points and lines have no area)")))?;
         for [a, b, c] in triangles {
             let corners = if mirrored { [a, c, b] } else { [a, b, c] };
-            let p = corners.map(|i| world.transform_point3(positions[i as usize]));
-            let face = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            let p64 = corners.map(|i| world64.transform_point3(positions[i as usize].as_dvec3()));
+            let face = (p64[1] - p64[0]).cross(p64[2] - p64[0]).normalize_or_zero().as_vec3();
             let n = match &normals {
                 Some(ns) => corners.map(|i| (normal_matrix * ns[i as usize]).normalize_or(face)),
                 None => [face; 3],
@@ -128,7 +169,7 @@ fn add_mesh(out: &mut Mesh, mesh: &gltf::Mesh, world: Mat4, buffers: &[Vec<u8>],
                 Some(set) => corners.map(|i| set[i as usize]),
                 None => [Vec2::ZERO; 3],
             });
-            out.positions.push(p);
+            positions64.push(p64);
             out.normals.push(n);
             out.uvs.push(t);
             out.material.push(material);

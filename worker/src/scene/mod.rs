@@ -107,3 +107,6 @@ pub fn info(scene: &Scene) -> SceneInfo {
 mod tests;
 #[cfg(test)]
 mod tests_formats;
+
+#[cfg(test)]
+mod tests_far;

@@ -8,8 +8,8 @@
 //! - its wide BVH skips boxes lying entirely within 1e-4 of the origin, an absolute distance. The
 //!   tree is therefore built in a space scaled by a power of two (exact in floating point) that
 //!   makes the scene about 2¹² units across, where 1e-4 is below f32 resolution.
-use crate::tracer::ray::{Ray, gamma};
-use glam::{Vec3, Vec3A};
+use crate::tracer::ray::{MACHINE_EPSILON, Ray, gamma};
+use glam::{DVec3, Vec3, Vec3A};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, cwbvh::CwBvh, ray::RayHit, triangle::Triangle};
 use std::time::Duration;
 
@@ -47,13 +47,17 @@ pub struct Hit {
 const TARGET_EXTENT_LOG2: i32 = 12;
 
 impl Accel {
+    /// The tree over every non-[degenerate](triangle_normal) triangle: those have no area
+    /// f32 can resolve, and rounding in the hit test could only give them false hits.
     pub fn build(tris: &[[Vec3; 3]], kind: BvhKind) -> Accel {
-        let scale = tree_scale(tris);
-        if tris.is_empty() {
+        let keep: Vec<u32> = (0..tris.len() as u32).filter(|&i| triangle_normal(&tris[i as usize]).is_some()).collect();
+        let scale = tree_scale(keep.iter().map(|&i| &tris[i as usize]));
+        if keep.is_empty() {
             return Accel { tree: Tree::Empty, verts: Vec::new(), prim_ids: Vec::new(), scale };
         }
-        let obvhs_tris: Vec<Triangle> = tris
+        let obvhs_tris: Vec<Triangle> = keep
             .iter()
+            .map(|&i| &tris[i as usize])
             .map(|t| Triangle {
                 v0: Vec3A::from(t[0] * scale),
                 v1: Vec3A::from(t[1] * scale),
@@ -74,6 +78,7 @@ impl Accel {
                 (Tree::Binary(bvh), ids)
             }
         };
+        let prim_ids: Vec<u32> = prim_ids.iter().map(|&k| keep[k as usize]).collect();
         let verts = prim_ids.iter().map(|&i| tris[i as usize].map(|v| v * scale)).collect();
         Accel { tree, verts, prim_ids, scale }
     }
@@ -138,6 +143,20 @@ impl Accel {
     }
 }
 
+/// The unit geometric normal (counter-clockwise winding), computed in f64; None for a
+/// degenerate triangle: one whose smallest height is at most half an f32 ulp of its largest
+/// coordinate (zero-area triangles, needles). f32 cannot place a point strictly inside such a
+/// triangle, and its f32 cross product may underflow to a NaN normal, so the tracer ignores it
+/// (not hit, not a light).
+pub fn triangle_normal(v: &[Vec3; 3]) -> Option<DVec3> {
+    let [a, b, c] = v.map(|p| p.as_dvec3());
+    let cross = (b - a).cross(c - a);
+    let longest = (b - a).length().max((c - b).length()).max((a - c).length());
+    let reach = a.abs().max(b.abs()).max(c.abs()).max_element();
+    let height = cross.length() / longest;
+    (height > MACHINE_EPSILON as f64 * reach && height.is_finite()).then(|| cross / cross.length())
+}
+
 /// 1/x, with ±f32::MAX instead of ±∞ so that a slab test on a zero component gives 0·MAX = 0
 /// (ray inside the slab) rather than NaN.
 fn exact_reciprocal(x: f32) -> f32 {
@@ -146,9 +165,9 @@ fn exact_reciprocal(x: f32) -> f32 {
 }
 
 /// Power of two bringing the scene's extent near 2^TARGET_EXTENT_LOG2, clamped so nothing overflows.
-fn tree_scale(tris: &[[Vec3; 3]]) -> f32 {
+fn tree_scale<'a>(tris: impl Iterator<Item = &'a [Vec3; 3]>) -> f32 {
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for v in tris.iter().flatten() {
+    for v in tris.flatten() {
         lo = lo.min(*v);
         hi = hi.max(*v);
     }
@@ -278,6 +297,21 @@ fn positive_in_f64(ray: &WatertightRay, v: &[Vec3; 3]) -> bool {
     // Shearing in f64 adds error of the order of the f32 inputs' own rounding; count it in.
     let bound = 3.0 * (g(3.0) * me * mz + de * mz + dz * me) / det.abs() + g(8.0) * mz;
     t > bound
+}
+
+/// Closest hit (t, triangle index) by testing every triangle in world space: the reference
+/// the BVH traversal is checked against.
+#[cfg(test)]
+pub(crate) fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(f32, u32)> {
+    let wt = WatertightRay::new(ray.origin, ray.dir);
+    let mut best: Option<(f32, u32)> = None;
+    for (i, t) in tris.iter().enumerate() {
+        let limit = best.map_or(f32::INFINITY, |b| b.0);
+        if let Some((th, _, _)) = intersect_triangle(&wt, t, limit) {
+            best = Some((th, i as u32));
+        }
+    }
+    best
 }
 
 #[cfg(test)]

@@ -29,18 +29,6 @@ fn grid(n: usize) -> Vec<[Vec3; 3]> {
     tris
 }
 
-fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(f32, u32)> {
-    let wt = WatertightRay::new(ray.origin, ray.dir);
-    let mut best: Option<(f32, u32)> = None;
-    for (i, t) in tris.iter().enumerate() {
-        let limit = best.map_or(f32::INFINITY, |b| b.0);
-        if let Some((th, _, _)) = intersect_triangle(&wt, t, limit) {
-            best = Some((th, i as u32));
-        }
-    }
-    best
-}
-
 #[test]
 fn rays_through_shared_edges_and_vertices_never_leak() {
     let tris = grid(8);

@@ -24,7 +24,7 @@ pub type Outcome = Result<(), String>;
 pub const U_MAX: f32 = 1.0 - 1.0 / 16_777_216.0;
 pub const SIGNIFICANCE: f64 = 0.01;
 /// Number of hypothesis tests (`assert_p` calls) a full run makes; update when adding one.
-pub const SUITE_TESTS: u32 = 79;
+pub const SUITE_TESTS: u32 = 116;
 const THETA_CELLS: usize = 32;
 const PHI_CELLS: usize = 64;
 

@@ -144,7 +144,7 @@ impl<'a> Integrator<'a> {
                 let Some(w) = self.scatter(&s, &bs, &mut ray) else { break };
                 beta *= 2.0 * w;
             } else {
-                l += beta * self.emitted(est, depth, prev, &s, &ray);
+                l += beta * self.emitted(est, depth, prev, &s);
                 let (u_pick, u_light) = (sampler.get_1d(), sampler.get_2d());
                 let (u_lobe, u_dir) = (sampler.get_1d(), sampler.get_2d());
                 let Some(bsdf) = s.bsdf.filter(|_| depth < self.settings.max_depth) else { break };
@@ -155,6 +155,11 @@ impl<'a> Integrator<'a> {
                 let Some(w) = self.scatter(&s, &bs, &mut ray) else { break };
                 beta *= w;
                 prev = Some(Bounce { p: s.p.p, n: s.frame.n, bsdf_pdf: bs.pdf });
+            }
+            if !beta.is_finite() {
+                // An overflowed throughput makes the sample meaningless (∞·0 later): report it
+                // as non-finite, so it is dropped and counted, and keep max_weight finite.
+                return PathSample { radiance: Vec3::NAN, max_weight };
             }
             max_weight = max_weight.max(beta.max_element());
             if !survives_roulette(self.settings.roulette, depth, &mut beta, sampler.get_1d()) {
@@ -178,14 +183,14 @@ impl<'a> Integrator<'a> {
     }
 
     /// Emission at a hit, weighted as the estimator requires.
-    fn emitted(&self, est: Estimator, depth: u32, prev: Option<Bounce>, s: &Surface, ray: &Ray) -> Vec3 {
+    fn emitted(&self, est: Estimator, depth: u32, prev: Option<Bounce>, s: &Surface) -> Vec3 {
         if s.le == Vec3::ZERO {
             return Vec3::ZERO;
         }
         match (est, prev) {
             (_, None) | (Estimator::Bsdf, _) => s.le,
             (Estimator::Mis, Some(b)) if s.light != NO_LIGHT => {
-                let light_pdf = self.lights.pdf_area(s.light, b.p, s.p.p, ray.dir.normalize());
+                let light_pdf = self.lights.pdf_area(s.light, b.p, s.p.p);
                 s.le * power_heuristic(1.0, b.bsdf_pdf, 1.0, light_pdf)
             }
             _ if depth == 0 => s.le,
@@ -241,7 +246,7 @@ impl<'a> Integrator<'a> {
         let b0 = 1.0 - hit.b1 - hit.b2;
         let v = &mesh.positions[i];
         let p = ErrPoint::from_barycentric(v, b0, hit.b1, hit.b2);
-        let mut ng = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+        let mut ng = self.scene.face_normals[i];
         let nv = &mesh.normals[i];
         let mut ns = (nv[0] * b0 + nv[1] * hit.b1 + nv[2] * hit.b2).normalize_or(ng);
         let wo_world = -ray.dir.normalize();
@@ -293,4 +298,8 @@ fn survives_roulette(rr: Roulette, depth: u32, beta: &mut Vec3, u: f32) -> bool 
 
 #[cfg(test)]
 #[path = "integrator_tests.rs"]
-mod tests;
+pub(crate) mod tests;
+
+#[cfg(test)]
+#[path = "integrator_mis_tests.rs"]
+mod mis_tests;

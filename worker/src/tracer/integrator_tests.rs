@@ -11,7 +11,7 @@ use crate::tracer::scene::Mesh;
 use glam::{Mat4, Vec3};
 
 /// Pools every sample of a render: (mean luminance-free per-channel mean of channel 0, σ of that mean).
-fn pooled(pixels: &[PixelSums]) -> (f64, f64) {
+pub(crate) fn pooled(pixels: &[PixelSums]) -> (f64, f64) {
     let (mut s, mut s2, mut n) = (0.0, 0.0, 0.0);
     for p in pixels {
         s += p.sum[0];
@@ -23,14 +23,14 @@ fn pooled(pixels: &[PixelSums]) -> (f64, f64) {
     (mean, (var / n).sqrt())
 }
 
-fn quad(mesh: &mut Mesh, c: Vec3, u: Vec3, v: Vec3, material: u32) {
+pub(crate) fn quad(mesh: &mut Mesh, c: Vec3, u: Vec3, v: Vec3, material: u32) {
     // Counter-clockwise seen from the side u × v points to.
     let (a, b, d, e) = (c - u - v, c + u - v, c + u + v, c - u + v);
     mesh.push_flat([a, b, d], material);
     mesh.push_flat([a, d, e], material);
 }
 
-fn camera_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
+pub(crate) fn camera_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
     let f = (target - eye).normalize();
     let up = if f.cross(Vec3::Y).length() < 1e-6 { Vec3::Z } else { Vec3::Y };
     let right = f.cross(up).normalize();
@@ -38,7 +38,7 @@ fn camera_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
     Camera { name: "test".into(), to_world, yfov }
 }
 
-fn settings(estimator: Estimator, roulette: Roulette, size: u32, background: Vec3) -> RenderSettings {
+pub(crate) fn settings(estimator: Estimator, roulette: Roulette, size: u32, background: Vec3) -> RenderSettings {
     RenderSettings {
         width: size,
         height: size,
@@ -50,18 +50,18 @@ fn settings(estimator: Estimator, roulette: Roulette, size: u32, background: Vec
     }
 }
 
-fn render(scene: &Scene, s: &RenderSettings, spp: u32) -> Vec<PixelSums> {
+pub(crate) fn render(scene: &Scene, s: &RenderSettings, spp: u32) -> Vec<PixelSums> {
     render_tile(scene, s, s.full_frame(), 0..spp).expect("render").pixels
 }
 
-fn assert_within_4_sigma(what: &str, got: (f64, f64), expected: f64) {
+pub(crate) fn assert_within_4_sigma(what: &str, got: (f64, f64), expected: f64) {
     let (mean, sigma) = got;
     assert!(sigma > 0.0 || mean == expected, "{what}: no variance measured");
     assert!((mean - expected).abs() <= 4.0 * sigma + 1e-6 * expected, "{what}: {mean} vs {expected} (σ {sigma})");
 }
 
 /// A closed cube of side 2 with inward faces, Lambert albedo `rho`, emitting `le` everywhere.
-fn furnace(rho: f32, le: f32) -> Scene {
+pub(crate) fn furnace(rho: f32, le: f32) -> Scene {
     let mut mesh = Mesh::default();
     for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
         let (u, v) = (axis.any_orthonormal_vector(), axis.cross(axis.any_orthonormal_vector()));
@@ -112,7 +112,7 @@ fn lambert_plane_under_a_uniform_background_reflects_rho_times_lb() {
 }
 
 /// Irradiance at `x` (normal `n`) from a uniform polygon of radiance `le` (Lambert's formula).
-fn polygon_irradiance(x: Vec3, n: Vec3, poly: &[Vec3], le: f64) -> f64 {
+pub(crate) fn polygon_irradiance(x: Vec3, n: Vec3, poly: &[Vec3], le: f64) -> f64 {
     let mut sum = 0.0f64;
     for i in 0..poly.len() {
         let a = (poly[i] - x).as_dvec3().normalize();

@@ -12,14 +12,17 @@
 //! intensity 1 in the file gives radiance of order 1 in the image. Point, spot and directional
 //! lights are delta lights: they are reached only by light sampling, never by a BSDF ray.
 //! A [`LightSet`] picks lights in proportion to their power, so dim lights cost little.
+use crate::tracer::accel::triangle_normal;
 use crate::tracer::ray::ErrPoint;
 use crate::tracer::sampling::{Frame, cosine_hemisphere, luminance, uniform_triangle};
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use std::f32::consts::PI;
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Light {
-    Triangle { tri: u32, v: [Vec3; 3], n: Vec3, area: f32, radiance: Vec3, two_sided: bool },
+    /// `plane`: the f64 unit normal and offset n·v0, so that the height of a point above the
+    /// plane (hence the cosine at the light) is exact for points in or near the plane.
+    Triangle { tri: u32, v: [Vec3; 3], n: Vec3, plane: (DVec3, f64), area: f32, radiance: Vec3, two_sided: bool },
     Point { position: Vec3, intensity: Vec3 },
     Spot { position: Vec3, axis: Vec3, intensity: Vec3, cos_inner: f32, cos_outer: f32 },
     Directional { dir: Vec3, irradiance: Vec3 },
@@ -48,13 +51,15 @@ pub struct LightSample {
 }
 
 impl Light {
-    /// An area light for triangle `tri`; None for degenerate triangles (zero area, no direction).
+    /// An area light for triangle `tri`; None for [degenerate](triangle_normal) triangles
+    /// (zero area, needles), which then have zero probability of being sampled.
     pub fn triangle(tri: u32, v: &[Vec3; 3], radiance: Vec3, two_sided: bool) -> Option<Light> {
-        let c = (v[1] - v[0]).cross(v[2] - v[0]);
-        let area = 0.5 * c.length();
-        let n = c.normalize_or_zero();
-        (area > 0.0 && area.is_finite() && n != Vec3::ZERO)
-            .then_some(Light::Triangle { tri, v: *v, n, area, radiance, two_sided })
+        let n = triangle_normal(v)?;
+        let d = v.map(|p| p.as_dvec3());
+        let area = (0.5 * (d[1] - d[0]).cross(d[2] - d[0]).length()) as f32;
+        let plane = (n, n.dot(d[0]));
+        (area > 0.0 && area.is_finite())
+            .then_some(Light::Triangle { tri, v: *v, n: n.as_vec3(), plane, area, radiance, two_sided })
     }
 
     /// Emitted power (luminance), used only to choose lights in proportion to it.
@@ -76,13 +81,13 @@ impl Light {
     /// Samples incident light at `p` (shading normal `n`), ignoring visibility and choice probability.
     fn sample(&self, p: Vec3, n: Vec3, u: Vec2) -> Option<LightSample> {
         match *self {
-            Light::Triangle { v, n: ln, area, radiance, two_sided, .. } => {
+            Light::Triangle { v, n: ln, plane, area, radiance, two_sided, .. } => {
                 let (b1, b2) = uniform_triangle(u);
                 let q = ErrPoint::from_barycentric(&v, 1.0 - b1 - b2, b1, b2);
                 let d = q.p - p;
                 let dist2 = d.length_squared();
                 let wi = d / dist2.sqrt();
-                let cos_l = -ln.dot(wi);
+                let cos_l = cos_at_light(plane, p, dist2);
                 if !(cos_l > 0.0 || two_sided && cos_l < 0.0) {
                     return None;
                 }
@@ -112,6 +117,14 @@ impl Light {
             }
         }
     }
+}
+
+/// Cosine at an area light of the direction towards `p`, at squared distance `dist2`:
+/// height of `p` above the light's plane over the distance. The height does not depend on
+/// where the sample point landed, so its rounding cannot turn a receiver in the plane
+/// (exactly 0) or just above it (a cosine of 10⁻⁵) into a wrong sign or a 1 % error.
+fn cos_at_light((n, offset): (DVec3, f64), p: Vec3, dist2: f32) -> f32 {
+    ((n.dot(p.as_dvec3()) - offset) / (dist2 as f64).sqrt()) as f32
 }
 
 fn punctual(p: Vec3, position: Vec3, intensity: Vec3) -> Option<LightSample> {
@@ -196,10 +209,10 @@ impl<'a> LightSet<'a> {
 
     /// Solid-angle density with which `sample` returns the point `q` (normal `ng`) of area light
     /// `light` as seen from `p`.
-    pub fn pdf_area(&self, light: u32, p: Vec3, q: Vec3, wi: Vec3) -> f32 {
+    pub fn pdf_area(&self, light: u32, p: Vec3, q: Vec3) -> f32 {
         match self.scene_lights[light as usize] {
-            Light::Triangle { n, area, two_sided, .. } => {
-                let cos_l = -n.dot(wi);
+            Light::Triangle { plane, area, two_sided, .. } => {
+                let cos_l = cos_at_light(plane, p, (q - p).length_squared());
                 if !(cos_l > 0.0 || two_sided && cos_l < 0.0) {
                     return 0.0;
                 }

@@ -37,7 +37,7 @@ fn area_pdf_agrees_with_the_sampled_pdf() {
         let expected = match s.target {
             Target::Point { p: q, .. } => {
                 let light = if s.li.x == 1.0 { 0 } else { 1 };
-                set.pdf_area(light, p, q.p, s.wi)
+                set.pdf_area(light, p, q.p)
             }
             Target::Infinite => set.pdf_background(Vec3::Y, s.wi),
         };

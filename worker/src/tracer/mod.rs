@@ -18,6 +18,8 @@ pub mod texture;
 
 #[cfg(test)]
 mod chi2;
+#[cfg(test)]
+mod numerics;
 
 pub use film::{PixelSums, Tile, TileSums};
 pub use integrator::{Estimator, Roulette};

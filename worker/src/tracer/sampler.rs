@@ -104,6 +104,9 @@ pub struct Sampler {
     pixel_hash: u64,
     sample_index: u32,
     dimension: u32,
+    /// Test-only: every draw is 0 or ONE_MINUS_EPSILON, bit (dimension mod 64) of the pattern.
+    #[cfg(test)]
+    boundary: Option<u64>,
 }
 
 impl Sampler {
@@ -119,12 +122,30 @@ impl Sampler {
             pixel_hash,
             sample_index,
             dimension: 0,
+            #[cfg(test)]
+            boundary: None,
         }
+    }
+
+    /// Test-only: a sampler whose draw at dimension d is ONE_MINUS_EPSILON if bit d mod 64
+    /// of `pattern` is set, else 0 — the boundary values, in every dimension.
+    #[cfg(test)]
+    pub fn boundary(pattern: u64) -> Sampler {
+        Sampler { boundary: Some(pattern), ..Sampler::start(SamplerKind::Independent, 0, 0, 0, 0) }
+    }
+
+    #[cfg(test)]
+    fn boundary_value(&self, d: u32) -> Option<f32> {
+        self.boundary.map(|p| if p >> (d % 64) & 1 == 1 { ONE_MINUS_EPSILON } else { 0.0 })
     }
 
     /// The next 1D value, in `[0, ONE_MINUS_EPSILON]`; consumes one dimension.
     pub fn get_1d(&mut self) -> f32 {
         let d = self.advance(1);
+        #[cfg(test)]
+        if let Some(v) = self.boundary_value(d) {
+            return v;
+        }
         match self.kind {
             SamplerKind::Independent => to_unit(self.independent_bits(d)),
             SamplerKind::Sobol => to_unit(self.sobol_bits(d, false).0),
@@ -135,6 +156,10 @@ impl Sampler {
     /// consumes two dimensions.
     pub fn get_2d(&mut self) -> Vec2 {
         let d = self.advance(2);
+        #[cfg(test)]
+        if let (Some(x), Some(y)) = (self.boundary_value(d), self.boundary_value(d.wrapping_add(1))) {
+            return Vec2::new(x, y);
+        }
         let (x, y) = match self.kind {
             SamplerKind::Independent => (
                 self.independent_bits(d),

@@ -2,7 +2,7 @@
 //!
 //! Built once per scene (by [`crate::scene`] from glTF, or directly in tests) and then shared
 //! read-only by every thread and every unit that renders it.
-use crate::tracer::accel::{Accel, BvhKind};
+use crate::tracer::accel::{Accel, BvhKind, triangle_normal};
 use crate::tracer::camera::Camera;
 use crate::tracer::light::Light;
 use crate::tracer::material::Material;
@@ -48,6 +48,9 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Triangle → index in `lights`, or `NO_LIGHT`.
     pub tri_light: Vec<u32>,
+    /// Unit geometric normal per triangle, from f64 (zero for degenerate triangles, which
+    /// the BVH leaves out).
+    pub face_normals: Vec<Vec3>,
     pub accel: Accel,
     /// Centre and radius of a sphere bounding all geometry (for infinite lights).
     pub bounds_centre: Vec3,
@@ -98,9 +101,12 @@ impl Scene {
                 }
         }
         lights.extend(punctual);
-        let (bounds_centre, bounds_radius) = bounding_sphere(&mesh.positions);
+        // Degenerate triangles are not geometry: they must not move the bounds either.
+        let solid: Vec<[Vec3; 3]> = mesh.positions.iter().filter(|v| triangle_normal(v).is_some()).copied().collect();
+        let (bounds_centre, bounds_radius) = bounding_sphere(&solid);
+        let face_normals = mesh.positions.iter().map(|v| triangle_normal(v).map_or(Vec3::ZERO, |n| n.as_vec3())).collect();
         let accel = Accel::build(&mesh.positions, kind);
-        Scene { mesh, materials, textures, cameras, lights, tri_light, accel, bounds_centre, bounds_radius }
+        Scene { mesh, materials, textures, cameras, lights, tri_light, face_normals, accel, bounds_centre, bounds_radius }
     }
 
     pub fn camera(&self, name: Option<&str>) -> Result<&Camera, String> {

@@ -13,6 +13,7 @@
 //! integrate to less than 1); MIS relies on that.
 
 pub mod ggx;
+pub mod ggx_albedo;
 pub mod lambert;
 pub mod pbr;
 pub mod phong;
