@@ -168,3 +168,6 @@ impl Store {
         self.jobs_dir.join(format!("{job_id}.exr"))
     }
 }
+
+#[cfg(test)]
+mod tests;
