@@ -84,7 +84,7 @@ pub struct Job {
     pub request: JobRequest,
     pub progress: Progress,
     /// Estimated relative MSE of the current image (mean over pixels and channels of
-    /// var(mean)/(mean² + 0.01)); null before two samples per pixel are merged.
+    /// Var(mean)/(mean + 0.01)²); null before two samples per pixel are merged.
     pub noise: Option<f64>,
     pub elapsed_s: f64,
     pub eta_s: Option<f64>,

@@ -12,15 +12,17 @@ pub fn layers(width: u32, height: u32, pixels: &[PixelSums]) -> ImageLayers {
     }
 }
 
-/// Mean over the image of the per-pixel relative variance of the mean (relMSE estimate),
-/// with the usual 1e-2 guard against dark pixels.
+/// The relMSE estimate: mean over pixels and channels of Var(mean) / (mean + 0.01)², the
+/// variance of each pixel's mean estimated from its merged sums (0.01 keeps dark pixels from
+/// dominating).
 pub fn rel_mse(pixels: &[PixelSums]) -> f64 {
     let mut acc = 0.0;
     for p in pixels {
         let m = p.mean();
         let v = p.variance_of_mean();
         for c in 0..3 {
-            acc += v[c] / (m[c] * m[c] + 1e-2);
+            let d = m[c] + 0.01;
+            acc += v[c] / (d * d);
         }
     }
     acc / (3 * pixels.len().max(1)) as f64
