@@ -1,4 +1,5 @@
 //! End-to-end tests: one binary, one module per capability.
+mod accuracy;
 mod cluster;
 mod estimators;
 mod farm;

@@ -97,7 +97,7 @@ impl TileRun {
             return None;
         }
         if self.rel_mse.get().is_none() {
-            self.rel_mse.set(Some(rel_mse(&self.merged)));
+            self.rel_mse.set(Some(rel_mse(&self.merged, self.rect.w as usize)));
         }
         self.rel_mse.get()
     }
