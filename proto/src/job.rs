@@ -99,6 +99,18 @@ pub struct Job {
     /// Why the job failed, or how it ended.
     pub message: Option<String>,
     pub created_unix_ms: u64,
+    /// Samples each worker rendered into the merged image so far (counted as units merge).
+    #[serde(default)]
+    pub contributions: Vec<WorkerContribution>,
+}
+
+/// A worker's share of a job: pixel-samples of its units that were merged (a unit counts once,
+/// when it merges; units dropped by a noise stop or a cancel do not count).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct WorkerContribution {
+    pub worker_id: String,
+    pub name: String,
+    pub samples: u64,
 }
 
 /// `GET /v1/jobs`: newest first.

@@ -15,7 +15,7 @@ pub mod problem;
 pub mod scene;
 pub mod sums;
 
-pub use job::{Job, JobList, JobRequest, JobState, Progress, RenderParams};
+pub use job::{Job, JobList, JobRequest, JobState, Progress, RenderParams, WorkerContribution};
 pub use lease::{Heartbeat, Lease, LeaseRequest, Registration, WorkerHello, WorkerInfo};
 pub use problem::Problem;
 pub use scene::SceneUploaded;

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
-use tessera_proto::{Job, JobState, Progress};
+use tessera_proto::{Job, JobState, Progress, WorkerContribution};
 use tessera_worker::tracer::PixelSums;
 use tokio::sync::broadcast;
 
@@ -223,6 +223,7 @@ pub fn job_status(job: &JobRun, now: u64, workers: u32) -> Job {
         max_sample_weight: job.max_weight,
         message: job.message.clone(),
         created_unix_ms: job.cfg.created_unix_ms,
+        contributions: job.contributions.iter().map(|(id, (name, n))| WorkerContribution { worker_id: id.clone(), name: name.clone(), samples: *n }).collect(),
     }
 }
 

@@ -7,7 +7,7 @@
 //! or below the target?), so it is deterministic too.
 use crate::image::rel_mse;
 use std::cell::Cell;
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use tessera_proto::{JobRequest, JobState, PartialSums, RenderParams, TileRect};
 use tessera_worker::tracer::PixelSums;
 
@@ -78,6 +78,14 @@ impl TileRun {
     }
 }
 
+/// Who rendered a unit: the worker's id and name, kept with the job so its status can say who
+/// contributed even after the worker is gone.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Renderer {
+    pub id: String,
+    pub name: String,
+}
+
 pub struct JobRun {
     pub cfg: JobConfig,
     pub seq: u64,
@@ -89,6 +97,10 @@ pub struct JobRun {
     pub dropped: u64,
     pub max_weight: f64,
     pub message: Option<String>,
+    /// Pixel-samples merged per worker id (with its name).
+    pub contributions: BTreeMap<String, (String, u64)>,
+    /// Who rendered each buffered (tile, batch), credited when it merges in order.
+    pending_by: HashMap<(usize, u32), Renderer>,
 }
 
 impl JobRun {
@@ -113,7 +125,7 @@ impl JobRun {
                 });
             }
         }
-        JobRun { cfg, seq, state: JobState::Queued, tiles, started_ms: None, finished_ms: None, history: Vec::new(), dropped: 0, max_weight: 0.0, message: None }
+        JobRun { cfg, seq, state: JobState::Queued, tiles, started_ms: None, finished_ms: None, history: Vec::new(), dropped: 0, max_weight: 0.0, message: None, contributions: BTreeMap::new(), pending_by: HashMap::new() }
     }
 
     pub fn samples_of(&self, batch: u32) -> [u32; 2] {
@@ -154,7 +166,8 @@ impl JobRun {
     }
 
     /// Buffers a batch's sums and merges every batch now contiguous. Returns batches merged.
-    pub fn accept(&mut self, tile: usize, batch: u32, sums: PartialSums, now: u64) -> u32 {
+    pub fn accept(&mut self, tile: usize, batch: u32, sums: PartialSums, by: Renderer, now: u64) -> u32 {
+        self.pending_by.insert((tile, batch), by);
         self.dropped += sums.dropped;
         self.max_weight = self.max_weight.max(sums.max_weight);
         self.tiles[tile].pending.insert(batch, sums);
@@ -163,7 +176,9 @@ impl JobRun {
             let t = &mut self.tiles[tile];
             let upto = t.merged_upto;
             let Some(next) = t.pending.remove(&upto) else { break };
+            let pixel_samples = (next.samples[1] - next.samples[0]) as u64 * next.tile.pixel_count() as u64;
             self.merge_next(tile, next);
+            self.credit(tile, upto, pixel_samples);
             merged += 1;
         }
         if self.tiles.iter().all(TileRun::complete) {
@@ -197,6 +212,11 @@ impl JobRun {
         }
     }
 
+    fn credit(&mut self, tile: usize, batch: u32, pixel_samples: u64) {
+        let by = self.pending_by.remove(&(tile, batch)).unwrap_or_default();
+        self.contributions.entry(by.id).or_insert((by.name, 0)).1 += pixel_samples;
+    }
+
     pub fn finish(&mut self, state: JobState, now: u64, message: Option<String>) {
         if self.state.is_final() {
             return;
@@ -208,6 +228,7 @@ impl JobRun {
             t.pending.clear();
             t.requeued.clear();
         }
+        self.pending_by.clear();
     }
 
     fn record_history(&mut self, now: u64) {
