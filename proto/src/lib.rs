@@ -18,5 +18,5 @@ pub mod sums;
 pub use job::{Job, JobList, JobRequest, JobState, Progress, RenderParams, WorkerContribution};
 pub use lease::{Heartbeat, Lease, LeaseRequest, Registration, WorkerHello, WorkerInfo};
 pub use problem::Problem;
-pub use scene::SceneUploaded;
+pub use scene::{SceneListing, SceneUploaded};
 pub use sums::{PartialSums, SumsError, TileRect, WirePixel};

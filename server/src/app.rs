@@ -24,7 +24,7 @@ const RESULT_LIMIT: usize = (1024 * 1024 * 64) + 4096;
 pub fn app(state: AppState) -> Router {
     let scene_limit = state.config.max_scene_bytes;
     let (router, api) = OpenApiRouter::with_openapi(ApiDoc::openapi())
-        .routes(routes!(scenes::upload).layer(DefaultBodyLimit::max(scene_limit)))
+        .routes(routes!(scenes::upload, scenes::list).layer(DefaultBodyLimit::max(scene_limit)))
         .routes(routes!(scenes::describe))
         .routes(routes!(scenes::data))
         .routes(routes!(jobs::create, jobs::list))
