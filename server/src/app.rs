@@ -46,6 +46,7 @@ pub fn app(state: AppState) -> Router {
             let api = api.clone();
             async move { axum::Json(api.as_ref().clone()) }
         }))
+        .merge(crate::dashboard::router())
         .fallback(|uri: axum::http::Uri| async move { AppError::not_found(format!("no route {uri}")) })
         .method_not_allowed_fallback(|| async { AppError::new(StatusCode::METHOD_NOT_ALLOWED, "this route does not take that method") })
         .layer(DefaultBodyLimit::max(JSON_LIMIT))

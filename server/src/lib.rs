@@ -7,12 +7,14 @@
 //! - [`local`]: a coordinator and a worker in one process (`tessera render`, benchmarks).
 //! - [`client`]: a small client of the coordinator's API.
 //! - [`scheduler`]: the clock-free state machine of jobs, units, leases and workers.
+//! - [`dashboard`]: the web dashboard at `/` (static files compiled in).
 //! - [`app`], [`routes`], [`state`], [`error`], [`scenes`]: the axum coordinator —
 //!   `app(state) -> Router`, handlers grouped by resource, problem+json errors, the scene store.
 pub mod app;
 pub mod auth;
 pub mod bundled;
 pub mod client;
+pub mod dashboard;
 pub mod error;
 pub mod image;
 pub mod local;

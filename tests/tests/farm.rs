@@ -8,7 +8,7 @@ use tessera_server::client::Coordinator;
 use tessera_server::output::decode_exr;
 
 /// A child process killed when dropped.
-struct Proc(Child);
+pub(crate) struct Proc(pub(crate) Child);
 impl Drop for Proc {
     fn drop(&mut self) {
         let _ = self.0.kill();
@@ -16,8 +16,8 @@ impl Drop for Proc {
     }
 }
 
-struct Farm {
-    url: String,
+pub(crate) struct Farm {
+    pub(crate) url: String,
     _coordinator: Proc,
     workers: Vec<Proc>,
     worker_token: Option<String>,
@@ -29,7 +29,7 @@ impl Farm {
     }
 
     /// With `tokens` = (client, worker), the coordinator requires them and workers send theirs.
-    fn start_with(name: &str, workers: usize, tokens: Option<(&str, &str)>) -> Farm {
+    pub(crate) fn start_with(name: &str, workers: usize, tokens: Option<(&str, &str)>) -> Farm {
         let data = temp_dir(name);
         let mut cmd = Command::new(tessera_bin());
         cmd.args(["serve", "--listen", "127.0.0.1:0", "--lease-timeout", "5", "--data"]).arg(&data);
@@ -52,7 +52,7 @@ impl Farm {
         farm
     }
 
-    fn add_worker(&mut self) {
+    pub(crate) fn add_worker(&mut self) {
         let mut cmd = Command::new(tessera_bin());
         if let Some(t) = &self.worker_token {
             cmd.env("TESSERA_WORKER_TOKEN", t);

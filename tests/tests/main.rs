@@ -1,4 +1,6 @@
 //! End-to-end tests: one binary, one module per capability.
+mod browser;
+mod dashboard;
 mod estimators;
 mod farm;
 mod harness;

@@ -11,6 +11,8 @@ mod tests;
 #[cfg(test)]
 mod tests_auth;
 #[cfg(test)]
+mod tests_dashboard;
+#[cfg(test)]
 mod tests_images;
 #[cfg(test)]
 mod tests_jobs;
