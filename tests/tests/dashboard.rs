@@ -4,7 +4,8 @@
 use crate::browser::{Browser, skip_or_require};
 use crate::farm::Farm;
 use crate::harness::temp_dir;
-use serde_json::Value;
+use fantoccini::Locator;
+use serde_json::{Value, json};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tessera_server::client::Coordinator;
@@ -38,20 +39,30 @@ return { state: $("j-state").textContent, progress: $("j-progress").value, live:
 
 #[test]
 fn the_dashboard_submits_watches_and_downloads_a_render() {
-    let Some((driver, chromium)) = skip_or_require() else { return };
+    let t0 = Instant::now();
+    if with_browser("dashboard", 0, steps) {
+        eprintln!("dashboard browser test: {:.1} s", t0.elapsed().as_secs_f64());
+    }
+}
+
+/// Starts a farm with tokens and `workers` workers, and a browser; runs `steps` in a task so that
+/// a failed assertion still closes the browser. False when the browser test is skipped.
+fn with_browser<Fut>(name: &str, workers: usize, steps: fn(Arc<Browser>, Farm) -> Fut) -> bool
+where
+    Fut: std::future::Future<Output = ()> + Send + 'static,
+{
+    let Some((driver, chromium)) = skip_or_require() else { return false };
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build().unwrap();
     rt.block_on(async {
-        let t0 = Instant::now();
-        let farm = Farm::start_with("dashboard", 0, Some((CLIENT, WORKER)));
-        let b = Arc::new(Browser::start(&driver, &chromium, temp_dir("dashboard-downloads")).await);
-        // Run the steps in a task so that a failed assertion still closes the browser.
+        let farm = Farm::start_with(name, workers, Some((CLIENT, WORKER)));
+        let b = Arc::new(Browser::start(&driver, &chromium, temp_dir(&format!("{name}-downloads"))).await);
         let outcome = tokio::spawn(steps(b.clone(), farm)).await;
         let _ = b.client.clone().close().await;
         if let Err(e) = outcome {
             std::panic::resume_unwind(e.into_panic());
         }
-        eprintln!("dashboard browser test: {:.1} s", t0.elapsed().as_secs_f64());
     });
+    true
 }
 
 async fn steps(b: Arc<Browser>, mut farm: Farm) {
@@ -70,7 +81,15 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
     let err = b.until("the inline width error", 20, r#"return document.getElementById("f-width-err").textContent;"#).await;
     assert!(err.as_str().unwrap().contains("width must be in 1..=16384"), "{err}");
     let focus = b.js(r#"return [document.activeElement.id, document.getElementById("f-width").getAttribute("aria-invalid")];"#).await;
-    assert_eq!(focus, serde_json::json!(["f-width", "true"]));
+    assert_eq!(focus, json!(["f-width", "true"]));
+    // A file that is not glTF: the upload's 422 shows at the file field.
+    let bad = temp_dir("dashboard-upload").join("not-a-scene.glb");
+    std::fs::write(&bad, b"certainly not glTF").unwrap();
+    b.client.find(Locator::Css("#f-file")).await.unwrap().send_keys(bad.to_str().unwrap()).await.unwrap();
+    b.click("#f-submit").await;
+    let err = b.until("the inline upload error", 20, r#"return document.getElementById("f-file-err").textContent;"#).await;
+    assert!(err.as_str().unwrap().contains("invalid glTF"), "{err}");
+    b.js(r#"document.getElementById("f-file").value = ""; return true;"#).await;
 
     for (field, v) in [("#f-width", "64"), ("#f-height", "64"), ("#f-spp", "32")] {
         b.fill(field, v).await;
@@ -88,6 +107,8 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
     assert_eq!((first["preview"]["mean"].as_f64(), first["preview"]["width"].as_u64()), (Some(0.0), Some(64)), "nothing merged: black");
     assert!(last["mean"].as_f64().unwrap() > 20.0, "the rendered box is not black: {last}");
     assert_ne!(first["preview"]["hash"], last["hash"], "the preview changed");
+    let drawn = b.js(r##"return [document.querySelectorAll("#j-chart polyline").length, document.getElementById("j-cancel").disabled];"##).await;
+    assert_eq!(drawn, json!([1, true]), "the noise history is drawn; a finished job cannot be canceled");
     let contrib = b.js(r##"return document.querySelector("#j-contrib tbody").textContent;"##).await;
     assert!(contrib.as_str().unwrap().contains("100%"), "one worker did everything: {contrib}");
 
@@ -137,17 +158,7 @@ async fn watch_to_the_end(b: &Browser) -> (Vec<i64>, Vec<Value>) {
 #[test]
 #[ignore = "writes docs/; run by hand"]
 fn dashboard_screenshots() {
-    let Some((driver, chromium)) = skip_or_require() else { return };
-    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build().unwrap();
-    rt.block_on(async {
-        let farm = Farm::start_with("dashboard-docs", 2, Some((CLIENT, WORKER)));
-        let b = Arc::new(Browser::start(&driver, &chromium, temp_dir("dashboard-docs-downloads")).await);
-        let outcome = tokio::spawn(screenshots(b.clone(), farm)).await;
-        let _ = b.client.clone().close().await;
-        if let Err(e) = outcome {
-            std::panic::resume_unwind(e.into_panic());
-        }
-    });
+    with_browser("dashboard-docs", 2, screenshots);
 }
 
 async fn screenshots(b: Arc<Browser>, farm: Farm) {
