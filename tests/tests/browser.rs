@@ -106,7 +106,7 @@ impl Browser {
         let path = self.downloads.join(name);
         let partial = self.downloads.join(format!("{name}.crdownload"));
         let end = Instant::now() + Duration::from_secs(secs);
-        while !(path.is_file() && !partial.exists()) {
+        while !path.is_file() || partial.exists() {
             assert!(Instant::now() < end, "{} was not downloaded within {secs} s", path.display());
             tokio::time::sleep(Duration::from_millis(50)).await;
         }
