@@ -103,6 +103,9 @@ pub struct Job {
     /// coordinator's limit (`--max-failures`) get no more of its units.
     #[serde(default)]
     pub worker_failures: Vec<WorkerFailures>,
+    /// Samples each worker rendered into the merged image so far (counted as units merge).
+    #[serde(default)]
+    pub contributions: Vec<WorkerContribution>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
@@ -112,6 +115,15 @@ pub struct WorkerFailures {
     pub failures: u32,
     /// True once the worker is kept off the job.
     pub blocked: bool,
+}
+
+/// A worker's share of a job: pixel-samples of its units that were merged (a unit counts once,
+/// when it merges; units dropped by a noise stop or a cancel do not count).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct WorkerContribution {
+    pub worker_id: String,
+    pub name: String,
+    pub samples: u64,
 }
 
 /// `GET /v1/jobs`: newest first.

@@ -15,8 +15,8 @@ pub mod problem;
 pub mod scene;
 pub mod sums;
 
-pub use job::{Job, JobList, JobRequest, JobState, Progress, RenderParams, WorkerFailures};
+pub use job::{Job, JobList, JobRequest, JobState, Progress, RenderParams, WorkerContribution, WorkerFailures};
 pub use lease::{Heartbeat, Lease, LeaseRequest, Registration, WorkerHello, WorkerInfo};
 pub use problem::Problem;
-pub use scene::SceneUploaded;
+pub use scene::{SceneListing, SceneUploaded};
 pub use sums::{PartialSums, SumsError, TileRect, WirePixel};

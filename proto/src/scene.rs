@@ -11,3 +11,15 @@ pub struct SceneUploaded {
     pub effects: Vec<String>,
     pub cameras: Vec<String>,
 }
+
+/// One entry of `GET /v1/scenes`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct SceneListing {
+    /// sha256 of the scene bytes.
+    pub id: String,
+    /// The bundled scene's name (usable in place of the id); null for uploads.
+    pub name: Option<String>,
+    pub triangles: u64,
+    pub effects: Vec<String>,
+    pub cameras: Vec<String>,
+}

@@ -24,7 +24,7 @@ const RESULT_LIMIT: usize = (1024 * 1024 * 64) + 4096;
 pub fn app(state: AppState) -> Router {
     let scene_limit = state.config.max_scene_bytes;
     let (router, api) = OpenApiRouter::with_openapi(ApiDoc::openapi())
-        .routes(routes!(scenes::upload).layer(DefaultBodyLimit::max(scene_limit)))
+        .routes(routes!(scenes::upload, scenes::list).layer(DefaultBodyLimit::max(scene_limit)))
         .routes(routes!(scenes::describe))
         .routes(routes!(scenes::data))
         .routes(routes!(jobs::create, jobs::list))
@@ -46,6 +46,7 @@ pub fn app(state: AppState) -> Router {
             let api = api.clone();
             async move { axum::Json(api.as_ref().clone()) }
         }))
+        .merge(crate::dashboard::router())
         .fallback(|uri: axum::http::Uri| async move { AppError::not_found(format!("no route {uri}")) })
         .method_not_allowed_fallback(|| async { AppError::new(StatusCode::METHOD_NOT_ALLOWED, "this route does not take that method") })
         .layer(DefaultBodyLimit::max(JSON_LIMIT))

@@ -2,7 +2,7 @@
 //!
 //! | role   | routes                                                                 |
 //! |--------|------------------------------------------------------------------------|
-//! | open   | `GET /healthz`                                                         |
+//! | open   | `GET /healthz`, the dashboard's static files (`/`, `/ui/…`: no data)   |
 //! | worker | `POST /v1/workers`, `/v1/leases…`, `GET /v1/scenes/{id}/data`          |
 //! | client | everything else (jobs, scenes, images, events, workers list, metrics, OpenAPI) |
 //!
@@ -28,6 +28,7 @@ pub fn role(method: &Method, path: &str) -> Role {
         || (path.starts_with("/v1/scenes/") && path.ends_with("/data"));
     match path {
         "/healthz" => Role::Open,
+        _ if crate::dashboard::is_static(path) => Role::Open,
         _ if worker_route => Role::Worker,
         _ => Role::Client,
     }
@@ -67,5 +68,8 @@ mod tests {
         assert_eq!(role(&Method::GET, "/v1/scenes/abc"), Role::Client);
         assert_eq!(role(&Method::POST, "/v1/jobs"), Role::Client);
         assert_eq!(role(&Method::GET, "/metrics"), Role::Client);
+        assert_eq!(role(&Method::GET, "/"), Role::Open);
+        assert_eq!(role(&Method::GET, "/ui/app.js"), Role::Open);
+        assert_eq!(role(&Method::GET, "/ui/secret"), Role::Client, "only the dashboard's own files");
     }
 }

@@ -81,6 +81,18 @@ impl SceneStore {
         self.meta.read().expect("lock").get(id).cloned()
     }
 
+    /// Every stored scene: bundled ones first by name, then uploads by id.
+    pub fn list(&self) -> Vec<(Option<String>, SceneMeta)> {
+        let meta = self.meta.read().expect("lock");
+        let mut named: Vec<_> = self.names.iter().filter_map(|(n, id)| Some((Some(n.clone()), meta.get(id)?.clone()))).collect();
+        named.sort_by(|a, b| a.0.cmp(&b.0));
+        let bundled: std::collections::HashSet<&String> = self.names.values().collect();
+        let mut uploaded: Vec<_> = meta.values().filter(|m| !bundled.contains(&m.id)).map(|m| (None, m.clone())).collect();
+        uploaded.sort_by(|a, b| a.1.id.cmp(&b.1.id));
+        named.extend(uploaded);
+        named
+    }
+
     pub fn bytes(&self, id: &str) -> Option<Vec<u8>> {
         if !self.meta.read().expect("lock").contains_key(id) {
             return None; // also keeps request paths away from the filesystem

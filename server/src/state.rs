@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
-use tessera_proto::{Job, JobState, Progress, WorkerFailures};
+use tessera_proto::{Job, JobState, Progress, WorkerContribution, WorkerFailures};
 use tessera_worker::tracer::PixelSums;
 use tokio::sync::broadcast;
 
@@ -264,6 +264,7 @@ pub fn job_status(job: &JobRun, now: u64, workers: u32, max_failures: u32) -> Jo
             .iter()
             .map(|(id, f)| WorkerFailures { worker_id: id.clone(), name: f.name.clone(), failures: f.count, blocked: f.count >= max_failures })
             .collect(),
+        contributions: job.contributions.iter().map(|(id, (name, n))| WorkerContribution { worker_id: id.clone(), name: name.clone(), samples: *n }).collect(),
     }
 }
 

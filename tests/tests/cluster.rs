@@ -7,7 +7,7 @@ use std::process::{Child, Command, Stdio};
 use tessera_server::client::Coordinator;
 
 /// A child process killed when dropped.
-pub struct Proc(Child);
+pub struct Proc(pub Child);
 
 impl Proc {
     /// SIGKILL, as when a machine dies: no chance to clean up.

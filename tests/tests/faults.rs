@@ -76,6 +76,8 @@ fn killing_workers_and_the_coordinator_mid_render_changes_no_bit() {
         let done = wait_for(&farm, &id, |j| j.state == JobState::Done).await;
         assert_eq!(done.state, JobState::Done, "{done:?}");
         assert_eq!(done.progress.samples_done, 128.0, "every sample counted exactly once");
+        let credited: u64 = done.contributions.iter().map(|c| c.samples).sum();
+        assert_eq!(credited, 96 * 96 * 128, "workers are credited once per merged sample, across the restart: {:?}", done.contributions);
         farm.client().bytes(&format!("/v1/jobs/{id}/image.exr")).await.unwrap()
     });
     let got = pixels(&exr);
@@ -98,6 +100,7 @@ fn finished_jobs_and_their_images_survive_a_restart() {
         assert_eq!(after.state, JobState::Done);
         assert_eq!(after.progress.samples_done, done.progress.samples_done);
         assert_eq!(after.history, done.history, "the noise history is kept");
+        assert_eq!(after.contributions, done.contributions, "so are the workers' shares");
         assert_eq!(c.bytes(&format!("/v1/jobs/{}/image.exr", job.id)).await.unwrap(), exr, "the same file");
     });
 }

@@ -1,6 +1,8 @@
 //! End-to-end tests: one binary, one module per capability.
 mod accuracy;
 mod cluster;
+mod browser;
+mod dashboard;
 mod estimators;
 mod farm;
 mod faults;

@@ -13,6 +13,8 @@ mod tests_auth;
 #[cfg(test)]
 mod tests_durability;
 #[cfg(test)]
+mod tests_dashboard;
+#[cfg(test)]
 mod tests_images;
 #[cfg(test)]
 mod tests_jobs;

@@ -5,7 +5,7 @@ use axum::body::Bytes;
 use axum::extract::{Path, State};
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::IntoResponse;
-use tessera_proto::{Problem, SceneUploaded};
+use tessera_proto::{Problem, SceneListing, SceneUploaded};
 
 /// Upload a `.glb` (`model/gltf-binary`) or self-contained `.gltf` (`model/gltf+json`).
 #[utoipa::path(post, path = "/v1/scenes", tag = "scenes", request_body(content = Vec<u8>, content_type = "model/gltf-binary"),
@@ -23,6 +23,13 @@ pub async fn upload(State(st): State<AppState>, headers: HeaderMap, body: Bytes)
         .map_err(|e| AppError::new(StatusCode::UNPROCESSABLE_ENTITY, e))?;
     let body = SceneUploaded { id: meta.id.clone(), triangles: meta.triangles, effects: meta.effects, cameras: meta.cameras };
     Ok((StatusCode::CREATED, [(header::LOCATION, format!("/v1/scenes/{}", meta.id))], axum::Json(body)))
+}
+
+/// Every scene a job can use: the bundled ones (by name) and the uploaded ones (by id).
+#[utoipa::path(get, path = "/v1/scenes", tag = "scenes", responses((status = 200, body = Vec<SceneListing>)))]
+pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<SceneListing>> {
+    let all = st.scenes.list().into_iter();
+    axum::Json(all.map(|(name, m)| SceneListing { id: m.id, name, triangles: m.triangles, effects: m.effects, cameras: m.cameras }).collect())
 }
 
 /// A stored scene's description (by id or bundled name).

@@ -168,3 +168,22 @@ async fn path_traversal_ids_never_read_files() {
     let p = api.get("/v1/scenes/..%2F..%2Fetc%2Fpasswd/data").await.problem(StatusCode::NOT_FOUND);
     assert_eq!(p.detail, "no scene \"../../etc/passwd\"");
 }
+
+#[tokio::test]
+async fn the_scene_list_names_the_bundled_scenes_then_uploads() {
+    let api = Api::new("s-list");
+    let mut extra = cornell_bytes();
+    extra.extend_from_slice(b"\n");
+    upload(&api, "model/gltf+json", extra.clone()).await.expect(StatusCode::CREATED);
+    let r = api.get("/v1/scenes").await;
+    r.expect(StatusCode::OK);
+    let list = r.json();
+    let list = list.as_array().unwrap();
+    let names: Vec<&str> = list.iter().filter_map(|s| s["name"].as_str()).collect();
+    assert_eq!(names, crate::bundled::names(), "every bundled scene, by name, in order");
+    let cornell = list.iter().find(|s| s["name"] == "cornell-box").unwrap();
+    assert_eq!((cornell["id"].as_str(), &cornell["triangles"]), (Some(sha256_hex(&cornell_bytes()).as_str()), &json!(32)));
+    let last = list.last().unwrap();
+    assert_eq!((last["id"].as_str(), &last["name"]), (Some(sha256_hex(&extra).as_str()), &json!(null)), "the upload, unnamed, after them");
+    assert_eq!(list.len(), names.len() + 1);
+}

@@ -37,7 +37,7 @@ async fn openapi_documents_every_route_the_router_serves() {
         ("/v1/jobs/{id}/image.exr", &["get"]),
         ("/v1/jobs/{id}/preview.png", &["get"]),
         ("/v1/jobs/{id}/events", &["get"]),
-        ("/v1/scenes", &["post"]),
+        ("/v1/scenes", &["get", "post"]),
         ("/v1/scenes/{id}", &["get"]),
         ("/v1/scenes/{id}/data", &["get"]),
         ("/v1/workers", &["get", "post"]),

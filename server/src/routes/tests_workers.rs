@@ -149,6 +149,7 @@ async fn a_result_is_merged_once_and_a_duplicate_is_409() {
     assert_eq!(job["workers"], 0, "the lease is done");
     assert_eq!(job["history"].as_array().unwrap().len(), 1);
     assert_eq!(job["max_sample_weight"], 0.5);
+    assert_eq!(job["contributions"], json!([{"worker_id": w, "name": "test-host", "samples": 3 * 64}]), "3 spp × 64 pixels, once");
     let worker = &api.get("/v1/workers").await.json()[0];
     assert_eq!((worker["units_done"].as_u64(), worker["current"].is_null()), (Some(1), true), "{worker}");
 }

@@ -21,6 +21,9 @@ pub struct JobRecord {
     pub history: Vec<[f64; 3]>,
     pub message: Option<String>,
     pub tiles: Vec<TileMark>,
+    /// Pixel-samples merged per worker id (with its name), as of the checkpointed merges.
+    #[serde(default)]
+    pub contributions: std::collections::BTreeMap<String, (String, u64)>,
 }
 
 /// How many batches a tile's checkpoint file holds (0: no file), and its noise stop.
@@ -64,6 +67,7 @@ impl JobRun {
             history: self.history.clone(),
             message: self.message.clone(),
             tiles: self.tiles.iter().map(|t| TileMark { upto: t.merged_upto, stop_at: t.stop_at }).collect(),
+            contributions: self.contributions.clone(),
         }
     }
 
@@ -124,6 +128,7 @@ impl Scheduler {
         job.history = rec.history;
         job.message = rec.message;
         job.elapsed_before_ms = rec.elapsed_ms;
+        job.contributions = rec.contributions;
         match job.state {
             JobState::Queued => {}
             JobState::Running => job.started_ms = Some(now),

@@ -7,7 +7,7 @@
 //! or below the target?), so it is deterministic too.
 use super::tile::{NoiseStop, TileRun};
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use tessera_proto::{JobRequest, JobState, PartialSums, RenderParams, TileRect};
 use tessera_worker::tracer::PixelSums;
 
@@ -44,6 +44,14 @@ pub struct Failures {
     pub count: u32,
 }
 
+/// Who rendered a unit: the worker's id and name, kept with the job so its status can say who
+/// contributed even after the worker is gone.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Renderer {
+    pub id: String,
+    pub name: String,
+}
+
 pub struct JobRun {
     pub cfg: JobConfig,
     pub seq: u64,
@@ -60,6 +68,10 @@ pub struct JobRun {
     /// Bumped on every change a checkpoint must record; `persisted_revision` is the one on disk.
     pub(super) revision: u64,
     pub(super) persisted_revision: u64,
+    /// Pixel-samples merged per worker id (with its name).
+    pub contributions: BTreeMap<String, (String, u64)>,
+    /// Who rendered each buffered (tile, batch), credited when it merges in order.
+    pending_by: HashMap<(usize, u32), Renderer>,
 }
 
 impl JobRun {
@@ -85,6 +97,8 @@ impl JobRun {
             failures: BTreeMap::new(),
             revision: 1,
             persisted_revision: 0,
+            contributions: BTreeMap::new(),
+            pending_by: HashMap::new(),
         }
     }
 
@@ -133,9 +147,15 @@ impl JobRun {
     }
 
     /// Buffers a batch's sums and merges every batch now contiguous. Returns batches merged.
-    pub fn accept(&mut self, tile: usize, batch: u32, sums: PartialSums, now: u64) -> u32 {
+    pub fn accept(&mut self, tile: usize, batch: u32, sums: PartialSums, by: Renderer, now: u64) -> u32 {
+        self.pending_by.insert((tile, batch), by);
+        let first = self.tiles[tile].merged_upto;
         let stop = self.cfg.noise_target.map(|target| NoiseStop { target, min_spp: MIN_SPP_FOR_NOISE_STOP.min(self.cfg.spp) });
         let merged = self.tiles[tile].accept(batch, sums, stop);
+        for b in first..first + merged {
+            let [s0, s1] = self.samples_of(b);
+            self.credit(tile, b, (s1 - s0) as u64 * self.tiles[tile].rect.pixel_count() as u64);
+        }
         if merged > 0 {
             self.revision += 1;
         }
@@ -150,6 +170,11 @@ impl JobRun {
         merged
     }
 
+    fn credit(&mut self, tile: usize, batch: u32, pixel_samples: u64) {
+        let by = self.pending_by.remove(&(tile, batch)).unwrap_or_default();
+        self.contributions.entry(by.id).or_insert((by.name, 0)).1 += pixel_samples;
+    }
+
     pub fn finish(&mut self, state: JobState, now: u64, message: Option<String>) {
         if self.state.is_final() {
             return;
@@ -160,6 +185,7 @@ impl JobRun {
         self.message = message;
         self.revision += 1;
         self.tiles.iter_mut().for_each(TileRun::drain);
+        self.pending_by.clear();
     }
 
     fn record_history(&mut self, now: u64) {

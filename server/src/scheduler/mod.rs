@@ -23,7 +23,7 @@ mod tests_durable;
 mod tile;
 
 pub use durable::{JobCheckpoint, JobRecord, RestoredTile, TileCheckpoint, TileMark};
-pub use job::{Failures, JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP};
+pub use job::{Failures, JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP, Renderer};
 pub use tile::TileRun;
 use std::collections::{BTreeMap, HashMap};
 use tessera_proto::{JobState, Lease, PartialSums};
@@ -235,7 +235,8 @@ impl Scheduler {
         if !job.wants(l.tile, l.batch) {
             return Ok(Accepted { job_id, merged: false, job_finished: false });
         }
-        job.accept(l.tile, l.batch, sums, now);
+        let by = Renderer { name: self.workers.get(&l.worker).map(|w| w.name.clone()).unwrap_or_default(), id: l.worker };
+        job.accept(l.tile, l.batch, sums, by, now);
         let job_finished = job.state.is_final();
         self.revoke_unwanted(l.job_seq);
         Ok(Accepted { job_id, merged: true, job_finished })

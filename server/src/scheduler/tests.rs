@@ -169,3 +169,43 @@ fn unknown_workers_are_told_so() {
     let mut s = Scheduler::new(TIMEOUT);
     assert!(s.lease("w99", 0).unwrap_err().contains("unknown worker"));
 }
+
+#[test]
+fn contributions_count_each_workers_units_when_they_merge() {
+    let mut s = Scheduler::new(TIMEOUT);
+    let a = s.register_worker("alpha", 2, 0);
+    let b = s.register_worker("beta", 2, 0);
+    s.submit(config("j", 8, 0));
+    let first = s.lease(&a, 0).unwrap().unwrap(); // tile 0, batch 0
+    let rest = drain(&mut s, &b, 0); // every other unit, including tile 0's batch 1
+    let tile0_batch1 = rest.iter().find(|g| g.tile == first.tile).unwrap();
+    // Beta's batch 1 of tile 0 arrives first: buffered, not merged, so not yet counted.
+    s.complete(&tile0_batch1.lease_id, sums(tile0_batch1, 1.0), 1).unwrap();
+    let job = s.job("j").unwrap();
+    assert!(job.contributions.is_empty(), "{:?}", job.contributions);
+    s.complete(&first.lease_id, sums(&first, 1.0), 2).unwrap();
+    let px0 = first.tile.pixel_count() as u64;
+    let job = s.job("j").unwrap();
+    assert_eq!(job.contributions[&a], ("alpha".to_string(), 4 * px0));
+    assert_eq!(job.contributions[&b], ("beta".to_string(), 4 * px0), "credited once batch 0 merged");
+    for g in rest.iter().filter(|g| g.lease_id != tile0_batch1.lease_id) {
+        s.complete(&g.lease_id, sums(g, 1.0), 3).unwrap();
+    }
+    let job = s.job("j").unwrap();
+    assert_eq!(job.state, JobState::Done);
+    let total: u64 = job.contributions.values().map(|c| c.1).sum();
+    assert_eq!(total, 8 * job.pixel_count(), "every merged pixel-sample credited exactly once");
+    assert_eq!(job.contributions[&a].1, 4 * px0);
+}
+
+#[test]
+fn units_dropped_unmerged_are_not_credited() {
+    let mut s = Scheduler::new(TIMEOUT);
+    let a = s.register_worker("alpha", 2, 0);
+    s.submit(config("j", 8, 0));
+    let grants = drain(&mut s, &a, 0);
+    let late = grants.iter().find(|g| g.samples == [4, 8]).unwrap();
+    s.complete(&late.lease_id, sums(late, 1.0), 1).unwrap(); // buffered behind batch 0
+    s.cancel("j", 2);
+    assert!(s.job("j").unwrap().contributions.is_empty());
+}

@@ -33,6 +33,7 @@ fn record(upto: u32) -> JobRecord {
         history: vec![[0.1, 4.0, 0.5]],
         message: None,
         tiles: vec![TileMark { upto, stop_at: None }],
+        contributions: Default::default(),
     }
 }
 
