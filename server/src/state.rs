@@ -62,6 +62,7 @@ pub struct Shared {
     /// Durable job state; None when `Config::checkpoint_ms` is None.
     pub store: Option<Store>,
     pub(crate) persist_lock: Mutex<()>,
+    finalize_lock: Mutex<()>,
     pub(crate) checkpoint_cost: Mutex<std::time::Duration>,
     /// Why the last checkpoint failed (cleared by the next that succeeds); shown by /healthz.
     pub last_checkpoint_error: Mutex<Option<String>>,
@@ -105,6 +106,7 @@ impl AppState {
             scenes,
             store,
             persist_lock: Mutex::new(()),
+            finalize_lock: Mutex::new(()),
             checkpoint_cost: Mutex::new(std::time::Duration::ZERO),
             last_checkpoint_error: Mutex::new(None),
             events,
@@ -153,8 +155,14 @@ impl Shared {
         self.config.data_dir.join("jobs").join(format!("{job_id}.exr"))
     }
 
-    /// Makes a finished job durable, then writes its EXR to `DATA/jobs/<id>.exr`.
+    /// Makes a finished job durable, then writes its EXR to `DATA/jobs/<id>.exr` once: every later
+    /// request serves that file, so a job's EXR is the same bytes however often it is fetched
+    /// (the `exr` crate writes attributes in hash order, so two encodings can differ).
     pub fn finalize(&self, job_id: &str) {
+        let _one_at_a_time = self.finalize_lock.lock().expect("lock");
+        if self.image_path(job_id).exists() {
+            return;
+        }
         if let Err(e) = self.checkpoint() {
             tracing::error!(job = job_id, "checkpointing the finished job failed (it stays in memory, retried): {e:#}");
         }

@@ -85,8 +85,13 @@ pub async fn cancel(State(st): State<AppState>, Path(id): Path<String>) -> Resul
     responses((status = 200, content_type = "image/x-exr"), (status = 404, body = Problem)))]
 pub async fn image_exr(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
     let done = st.scheduler.lock().expect("lock").job(&id).is_some_and(|j| j.state == tessera_proto::JobState::Done);
-    if done && let Ok(bytes) = tokio::fs::read(st.image_path(&id)).await {
-        return Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes));
+    if done {
+        // The job may have finished a moment ago, its file not yet written: write it now.
+        let (st2, id2) = (st.clone(), id.clone());
+        tokio::task::spawn_blocking(move || st2.finalize(&id2)).await.map_err(AppError::internal)?;
+        if let Ok(bytes) = tokio::fs::read(st.image_path(&id)).await {
+            return Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes));
+        }
     }
     let snapshot = snapshot(&st, &id)?;
     let bytes = tokio::task::spawn_blocking(move || snapshot.encode_exr()).await.map_err(AppError::internal)?.map_err(AppError::internal)?;
