@@ -1,4 +1,6 @@
 //! End-to-end tests: one binary, one module per capability.
+mod compose;
+mod compose_farm;
 mod estimators;
 mod farm;
 mod harness;

@@ -10,7 +10,7 @@ pub struct WorkArgs {
     #[arg(long, env = "TESSERA_THREADS", default_value_t = 0)]
     pub threads: usize,
     /// Name shown by the coordinator (default: the host name).
-    #[arg(long)]
+    #[arg(long, env = "TESSERA_WORKER_NAME")]
     pub name: Option<String>,
     /// Worker bearer token.
     #[arg(long, env = "TESSERA_WORKER_TOKEN", hide_env_values = true)]
