@@ -120,7 +120,7 @@ impl ComposeFarm {
             let port = stdout(&self.compose(&["port", "coordinator", "7878"]));
             if !port.is_empty() && !port.ends_with(":0") {
                 self.url = format!("http://{port}");
-                let health = Command::new(crate::harness::tessera_bin()).args(["healthcheck", "--timeout", "1", "--url", &format!("{}/healthz", self.url)]).output();
+                let health = Command::new(static_bin()).args(["healthcheck", "--timeout", "1", "--url", &format!("{}/healthz", self.url)]).output();
                 if health.is_ok_and(|o| o.status.success()) {
                     return;
                 }
