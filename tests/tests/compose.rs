@@ -97,6 +97,16 @@ fn compose_three_workers_render_the_same_bits_as_tessera_render() {
         assert!(workers.iter().all(|w| w.units_done > 0), "{workers:?}");
         assert_eq!(farm.metrics().await["tessera_units_merged_total"], UNITS);
     });
+    // `tessera healthcheck` works inside the image, against the coordinator and the workers
+    // (their first check comes 5 s after they start).
+    for c in farm.containers("coordinator").iter().chain(&farm.containers("worker")) {
+        let health = || String::from_utf8_lossy(&farm.docker(&["inspect", "-f", "{{.State.Health.Status}}", c]).stdout).trim().to_string();
+        let until = Instant::now() + Duration::from_secs(20);
+        while health() == "starting" && Instant::now() < until {
+            std::thread::sleep(Duration::from_millis(500));
+        }
+        assert_eq!(health(), "healthy", "container {c}");
+    }
     report(test, started);
 }
 
