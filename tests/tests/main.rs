@@ -3,6 +3,8 @@ mod accuracy;
 mod cluster;
 mod browser;
 mod dashboard;
+mod compose;
+mod compose_farm;
 mod estimators;
 mod farm;
 mod faults;

@@ -12,7 +12,7 @@ pub struct ServeArgs {
     #[arg(long, env = "TESSERA_DATA", default_value = "tessera-data")]
     pub data: PathBuf,
     /// Seconds a lease lives without a heartbeat before its unit is given to another worker.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, env = "TESSERA_LEASE_TIMEOUT", default_value_t = 10.0)]
     pub lease_timeout: f64,
     /// Seconds between checkpoints of job state to the data directory (a restarted coordinator
     /// resumes from the last one; merges after it are rendered again). 0 keeps jobs in memory only.

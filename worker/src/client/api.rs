@@ -52,6 +52,10 @@ const HEARTBEAT_TIMEOUT: Duration = Duration::from_secs(10);
 const UPLOAD_TIMEOUT: Duration = Duration::from_secs(120);
 const SCENE_TIMEOUT: Duration = Duration::from_secs(600);
 const RELEASE_TIMEOUT: Duration = Duration::from_secs(5);
+/// A lease request long-polls for 1 s at most, so an answer later than this means a dead
+/// connection (e.g. a worker whose host was cut off and came back with a new address): give up
+/// early and the retry opens a fresh one, rather than idling for the JSON timeout.
+const LEASE_TIMEOUT: Duration = Duration::from_secs(6);
 
 /// Characters left as they are in an id placed in a URL path (ids are coordinator-made and
 /// normally URL-safe already; anything else is escaped rather than trusted).
@@ -105,7 +109,7 @@ impl Api {
 
     pub(crate) async fn lease(&self, worker_id: &str) -> Result<LeaseAnswer, CallError> {
         let body = LeaseRequest { worker_id: worker_id.to_owned() };
-        let resp = send(self.request(Method::POST, "/v1/leases?wait_ms=1000", JSON_TIMEOUT).json(&body), "lease request").await?;
+        let resp = send(self.request(Method::POST, "/v1/leases?wait_ms=1000", LEASE_TIMEOUT).json(&body), "lease request").await?;
         match resp.status() {
             StatusCode::OK => Ok(LeaseAnswer::Lease(Box::new(json(resp, "lease request", |b| serde_json::from_slice::<Lease>(b)).await?))),
             StatusCode::NO_CONTENT => Ok(LeaseAnswer::NoWork),

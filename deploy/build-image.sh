@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Builds the container image: a static `tessera` (glibc, crt-static) copied into FROM scratch.
+# Usage: deploy/build-image.sh [TAG]   (default tessera:latest; prints the tag and the size)
+# Works offline on an engine with no images. Re-running reuses the cargo build
+# (target/x86_64-unknown-linux-gnu/release), so it is quick when nothing changed.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+tag="${1:-tessera:latest}"
+target=x86_64-unknown-linux-gnu
+# RUSTFLAGS with an explicit --target applies to the binary only, not to build scripts and
+# proc macros (which must stay dynamic).
+RUSTFLAGS="-C target-feature=+crt-static" "${CARGO:-cargo}" build --release --target "$target" -p tessera-server --bin tessera
+bin="${CARGO_TARGET_DIR:-target}/$target/release/tessera"
+linkage=$(ldd "$bin" 2>&1 || true)
+if [[ "$linkage" != *"not a dynamic executable"* && "$linkage" != *"statically linked"* ]]; then
+    echo "error: $bin is not statically linked: $linkage" >&2
+    exit 1
+fi
+context=$(mktemp -d)
+trap 'rm -rf "$context"' EXIT
+# Line tables stay in target/ for backtraces; the image gets the stripped binary.
+strip -o "$context/tessera" "$bin" 2>/dev/null || cp "$bin" "$context/tessera"
+mkdir -p "$context/data" "$context/tmp"
+chmod 1777 "$context/tmp"
+# The legacy builder needs nothing but the engine (no buildx here); BuildKit works too.
+DOCKER_BUILDKIT="${DOCKER_BUILDKIT:-0}" docker build -q -f Dockerfile -t "$tag" "$context" >/dev/null
+size=$(docker image inspect -f '{{.Size}}' "$tag")
+echo "$tag $size bytes ($((size / 1024 / 1024)) MiB)"
