@@ -11,6 +11,10 @@ mod tests;
 #[cfg(test)]
 mod tests_auth;
 #[cfg(test)]
+mod tests_bad_input;
+#[cfg(test)]
+mod tests_bad_input_cases;
+#[cfg(test)]
 mod tests_durability;
 #[cfg(test)]
 mod tests_images;

@@ -90,10 +90,13 @@ pub fn parse(bytes: &[u8], base: Option<&Path>) -> Result<Parsed, SceneError> {
 pub fn parse_limited(bytes: &[u8], base: Option<&Path>, max_triangles: u64) -> Result<Parsed, SceneError> {
     // gltf-json 1.4's validator indexes `accessors[POSITION]` unchecked and panics on an index
     // out of range: turn that into an error naming the attribute.
+    if bytes.iter().all(u8::is_ascii_whitespace) {
+        return Err(SceneError::new("invalid glTF: the scene is empty"));
+    }
     validate::glb_container(bytes).map_err(|e| SceneError::new(format!("invalid glTF: {e}")))?;
     let gltf = std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes))
         .map_err(|_| SceneError::new(format!("invalid glTF: {}", validate::explain_panic(bytes))))?
-        .map_err(|e| SceneError::new(format!("invalid glTF: {e}")))?;
+        .map_err(|e| SceneError::new(format!("invalid glTF: {}", e.to_string().trim_start_matches("invalid glTF: "))))?;
     let doc = gltf.document;
     let buffers = uri::load_buffers(&doc, base, gltf.blob)?;
     let textures = materials::load_textures(&doc, base, &buffers)?;
