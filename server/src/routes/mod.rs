@@ -21,6 +21,8 @@ mod tests_images;
 #[cfg(test)]
 mod tests_jobs;
 #[cfg(test)]
+mod tests_numerics;
+#[cfg(test)]
 mod tests_scenes;
 #[cfg(test)]
 mod tests_service;
