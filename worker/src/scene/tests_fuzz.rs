@@ -156,7 +156,21 @@ fn mutated_scenes_load_or_fail_cleanly() {
 
 #[test]
 fn the_crash_corpus_loads_or_fails_cleanly() {
-    let Ok(entries) = std::fs::read_dir(corpus_dir()) else { return };
+    replay(&corpus_dir());
+}
+
+/// Crashers found and not fixed yet: a mutated bundled scene whose CWBVH is deeper than obvhs's
+/// 32-entry traversal stack (its debug assertion fires in `Scene::new`; release builds skip the
+/// check and clamp the stack, which can lose hits). Run with `--ignored`; move a file up to
+/// `tests/corpus/` once it passes.
+#[test]
+#[ignore = "known crasher, not fixed yet: obvhs CWBVH deeper than its traversal stack"]
+fn the_pending_crashers_load_or_fail_cleanly() {
+    replay(&corpus_dir().join("pending"));
+}
+
+fn replay(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
     let mut n = 0;
     for e in entries.flatten().filter(|e| e.path().extension().is_some_and(|x| x == "bin")) {
         let bytes = std::fs::read(e.path()).expect("corpus file");
