@@ -159,16 +159,6 @@ fn the_crash_corpus_loads_or_fails_cleanly() {
     replay(&corpus_dir());
 }
 
-/// Crashers found and not fixed yet: a mutated bundled scene whose CWBVH is deeper than obvhs's
-/// 32-entry traversal stack (its debug assertion fires in `Scene::new`; release builds skip the
-/// check and clamp the stack, which can lose hits). Run with `--ignored`; move a file up to
-/// `tests/corpus/` once it passes.
-#[test]
-#[ignore = "known crasher, not fixed yet: obvhs CWBVH deeper than its traversal stack"]
-fn the_pending_crashers_load_or_fail_cleanly() {
-    replay(&corpus_dir().join("pending"));
-}
-
 fn replay(dir: &Path) {
     let Ok(entries) = std::fs::read_dir(dir) else { return };
     let mut n = 0;

@@ -66,3 +66,35 @@ fn a_doubling_node_chain_is_refused_at_once() {
     let e = parse(chain.as_bytes(), None).err().expect("refused");
     assert!(e.0.contains("appears more than once") || e.0.contains("invalid glTF"), "{e}");
 }
+
+/// A mutated bundled scene (found by libFuzzer) whose wide BVH is deeper than obvhs's 32-entry
+/// traversal stack: it gets the binary tree, so every ray finds what an unlimited-stack traversal
+/// finds. (The loop over triangles is no reference here: with corners near 1e32 its unscaled
+/// triangle test overflows to a NaN distance, where the tree, built in a rescaled space, does not.)
+#[test]
+fn a_scene_too_deep_for_the_wide_bvh_still_finds_every_hit() {
+    use crate::tracer::accel::{Accel, BvhKind};
+    use crate::tracer::ray::Ray;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/bvh-too-deep-f4728aa7.bin");
+    let scene = load_bytes(&std::fs::read(path).expect("corpus file"), None).expect("loads");
+    let tris = &scene.mesh.positions;
+    let binary = Accel::build(tris, BvhKind::Binary);
+    let mut x = 11u64;
+    let mut rnd = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let mut hits = 0;
+    for k in 0..2000 {
+        let target = tris[k % tris.len()].iter().sum::<glam::Vec3>() / 3.0;
+        let origin = target + (glam::Vec3::new(rnd(), rnd(), rnd()) - 0.5) * 8.0;
+        let ray = Ray::new(origin, (target - origin).normalize_or(glam::Vec3::Z));
+        let expected = binary.intersect(&ray, f32::INFINITY).map(|h| h.t.to_bits());
+        assert_eq!(scene.accel.intersect(&ray, f32::INFINITY).map(|h| h.t.to_bits()), expected, "ray {k}");
+        assert_eq!(scene.accel.occluded(&ray, f32::INFINITY), expected.is_some(), "ray {k}");
+        hits += expected.is_some() as u32;
+    }
+    assert!(hits > 1000, "{hits} hits");
+}
