@@ -14,6 +14,8 @@ pub mod lease;
 pub mod problem;
 pub mod scene;
 pub mod sums;
+#[cfg(test)]
+mod sums_fuzz;
 
 pub use job::{Job, JobList, JobRequest, JobState, Progress, RenderParams, WorkerContribution, WorkerFailures};
 pub use lease::{Heartbeat, Lease, LeaseRequest, Registration, WorkerHello, WorkerInfo};

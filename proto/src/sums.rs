@@ -105,6 +105,9 @@ impl PartialSums {
         if u16_at(4) != VERSION {
             return err(format!("unsupported version {} (expected {VERSION})", u16_at(4)));
         }
+        if u16_at(6) != 0 {
+            return err(format!("reserved header bytes 6..8 are {} (must be 0)", u16_at(6)));
+        }
         let tile = TileRect { x0: u32_at(8), y0: u32_at(12), w: u32_at(16), h: u32_at(20) };
         let samples = [u32_at(24), u32_at(28)];
         let (dropped, max_weight) = (u64_at(32), f64_at(40));
@@ -170,6 +173,7 @@ mod tests {
             (good[..good.len() - 1].to_vec(), "needs"),
             ([b"XSUM", &good[4..]].concat(), "bad magic"),
             ({ let mut b = good.clone(); b[4] = 9; b }, "unsupported version"),
+            ({ let mut b = good.clone(); b[6] = 1; b }, "reserved"),
             ({ let mut b = good.clone(); b[48..56].copy_from_slice(&f64::NAN.to_le_bytes()); b }, "finite"),
             ({ let mut b = good.clone(); b[48 + 24..48 + 32].copy_from_slice(&(-1f64).to_le_bytes()); b }, "squares"),
             ({ let mut b = good.clone(); b[32] = 0; b }, "counted"),

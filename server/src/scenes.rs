@@ -61,7 +61,7 @@ impl SceneStore {
         if let Some(m) = self.meta.read().expect("lock").get(&id) {
             return Ok(m.clone());
         }
-        let parsed = tessera_worker::scene::parse(bytes, None).map_err(|e| e.0)?;
+        let parsed = tessera_worker::scene::parse_limited(bytes, None, self.max_triangles).map_err(|e| e.0)?;
         let triangles = parsed.triangles() as u64;
         if triangles > self.max_triangles {
             return Err(format!("the scene has {triangles} triangles; this coordinator accepts at most {}", self.max_triangles));

@@ -4,10 +4,10 @@ use crate::scheduler::{Accepted, ResultError};
 use crate::state::AppState;
 use axum::body::Bytes;
 use axum::extract::{Path, Query, State};
-use axum::http::StatusCode;
+use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use std::sync::atomic::Ordering;
-use tessera_proto::{Heartbeat, Lease, LeaseRequest, PartialSums, Problem, Registration, WorkerHello, WorkerInfo};
+use tessera_proto::{sums, Heartbeat, Lease, LeaseRequest, PartialSums, Problem, Registration, WorkerHello, WorkerInfo};
 
 /// Register a worker; returns its id.
 #[utoipa::path(post, path = "/v1/workers", tag = "workers", request_body = WorkerHello, responses((status = 201, body = Registration), (status = 400, body = Problem)))]
@@ -101,8 +101,14 @@ pub async fn release(State(st): State<AppState>, Path(id): Path<String>) -> Resu
 /// Return a unit's partial sums (binary, `application/x-tessera-sums`).
 #[utoipa::path(put, path = "/v1/leases/{id}/result", tag = "workers", params(("id" = String, Path)),
     request_body(content = Vec<u8>, content_type = "application/x-tessera-sums"),
-    responses((status = 204, description = "merged"), (status = 409, body = Problem), (status = 422, body = Problem)))]
-pub async fn result(State(st): State<AppState>, Path(id): Path<String>, body: Bytes) -> Result<StatusCode, AppError> {
+    responses((status = 204, description = "merged"), (status = 409, body = Problem), (status = 415, body = Problem), (status = 422, body = Problem)))]
+pub async fn result(State(st): State<AppState>, Path(id): Path<String>, headers: HeaderMap, body: Bytes) -> Result<StatusCode, AppError> {
+    // A body sent as something else (JSON, text) is a client bug, not a bad unit: say so and
+    // leave the lease alone.
+    let ct = headers.get(header::CONTENT_TYPE).map(|v| v.to_str().unwrap_or("?").split(';').next().unwrap_or("").trim());
+    if ct.is_some_and(|ct| ct != sums::CONTENT_TYPE && ct != "application/octet-stream") {
+        return Err(AppError::new(StatusCode::UNSUPPORTED_MEDIA_TYPE, format!("results are {} (got {:?})", sums::CONTENT_TYPE, ct.unwrap_or(""))));
+    }
     let sums = match PartialSums::decode(&body) {
         Ok(s) => s,
         Err(e) => {

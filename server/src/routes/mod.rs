@@ -11,6 +11,10 @@ mod tests;
 #[cfg(test)]
 mod tests_auth;
 #[cfg(test)]
+mod tests_bad_input;
+#[cfg(test)]
+mod tests_bad_input_cases;
+#[cfg(test)]
 mod tests_durability;
 #[cfg(test)]
 mod tests_dashboard;
@@ -18,6 +22,8 @@ mod tests_dashboard;
 mod tests_images;
 #[cfg(test)]
 mod tests_jobs;
+#[cfg(test)]
+mod tests_numerics;
 #[cfg(test)]
 mod tests_scenes;
 #[cfg(test)]

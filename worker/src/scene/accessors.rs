@@ -6,6 +6,7 @@ use super::SceneError;
 pub fn check_primitive(prim: &gltf::Primitive, buffers: &[Vec<u8>], at: &dyn Fn(&str) -> String) -> Result<(), SceneError> {
     for (semantic, accessor) in prim.attributes() {
         check(&accessor, buffers).map_err(|e| SceneError::new(at(&format!("{} accessor {e}", semantic.to_string()))))?;
+        check_type(&semantic, &accessor).map_err(|e| SceneError::new(at(&format!("{} accessor {e}", semantic.to_string()))))?;
     }
     if let Some(ix) = prim.indices() {
         check(&ix, buffers).map_err(|e| SceneError::new(at(&format!("indices accessor {e}"))))?;
@@ -18,12 +19,33 @@ pub fn check_primitive(prim: &gltf::Primitive, buffers: &[Vec<u8>], at: &dyn Fn(
     Ok(())
 }
 
+/// Largest count of an accessor that has no buffer view (16 M elements: 200 MB as f32 VEC3).
+const MAX_VIEWLESS_COUNT: usize = 1 << 24;
+
+/// The element types glTF allows for the attributes the loader reads (the `gltf` reader assumes
+/// them: it debug-asserts, or reads misaligned garbage, on others).
+fn check_type(semantic: &gltf::Semantic, a: &gltf::Accessor) -> Result<(), String> {
+    use gltf::Semantic::{Normals, Positions, TexCoords};
+    use gltf::accessor::{DataType::*, Dimensions::*};
+    let ok = match semantic {
+        Positions | Normals => a.dimensions() == Vec3 && a.data_type() == F32,
+        TexCoords(_) => a.dimensions() == Vec2 && matches!(a.data_type(), F32 | U8 | U16),
+        _ => true, // not read
+    };
+    if ok { Ok(()) } else { Err(format!("has type {:?} of {:?}, which glTF does not allow for it", a.dimensions(), a.data_type())) }
+}
+
 fn check(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
     let count = a.count();
     if count == 0 {
         return Err("count 0".into());
     }
     let size = a.size();
+    // Without a buffer view the accessor is zeros (plus sparse values): nothing in the file
+    // bounds its count, so a tiny file could make the reader allocate gigabytes.
+    if a.view().is_none() && count > MAX_VIEWLESS_COUNT {
+        return Err(format!("has no bufferView and count {count}; at most {MAX_VIEWLESS_COUNT} such elements are accepted"));
+    }
     if let Some(view) = a.view() {
         let stride = view.stride().unwrap_or(size);
         if stride < size {

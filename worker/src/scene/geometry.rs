@@ -15,7 +15,10 @@ pub struct Parts {
 /// Walks the default scene (or the first one) and flattens it into world space, in f64; a scene
 /// lying far from the origin (its centre farther than 4× its size) is then moved to the origin
 /// before rounding to f32 (see [`rebase_origin`]).
-pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize) -> Result<Parts, SceneError> {
+///
+/// `max_triangles` is checked from accessor counts before any vertex is read, so a small file
+/// declaring a huge mesh (or instancing one many times) is refused without allocating it.
+pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, max_triangles: u64) -> Result<Parts, SceneError> {
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
@@ -23,15 +26,23 @@ pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize) ->
     let mut parts = Parts { mesh: Mesh::default(), cameras: Vec::new(), lights: Vec::new() };
     let (mut positions, mut camera_worlds, mut light_worlds) = (Vec::new(), Vec::new(), Vec::new());
     let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
+    // glTF nodes form disjoint trees. A node reached twice (two parents, or a cycle) would be
+    // instanced once per path: a few nodes listing the same child twice make 2^depth copies.
+    let mut seen = vec![false; doc.nodes().len()];
+    let mut budget = TriangleBudget { left: max_triangles, limit: max_triangles };
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > 256 {
             return Err(SceneError::new(format!("node {}: hierarchy deeper than 256 levels", node.index())));
+        }
+        if std::mem::replace(&mut seen[node.index()], true) {
+            return Err(SceneError::new(format!("node {} appears more than once in the scene's node trees (glTF nodes must form disjoint trees)", node.index())));
         }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
         if !world.is_finite() {
             return Err(SceneError::new(format!("node {}: transform is not finite", node.index())));
         }
         if let Some(mesh) = node.mesh() {
+            budget.spend(&mesh)?;
             add_mesh(&mut parts.mesh, &mut positions, &mesh, world, buffers, material_count)?;
         }
         if let Some(cam) = node.camera()
@@ -176,6 +187,34 @@ fn add_mesh(
         }
     }
     Ok(())
+}
+
+/// Triangles still allowed; spent per mesh instance from accessor counts, before reading.
+struct TriangleBudget {
+    left: u64,
+    limit: u64,
+}
+
+impl TriangleBudget {
+    fn spend(&mut self, mesh: &gltf::Mesh) -> Result<(), SceneError> {
+        for prim in mesh.primitives() {
+            let corners = prim.indices().or_else(|| prim.get(&gltf::Semantic::Positions)).map_or(0, |a| a.count()) as u64;
+            let n = match prim.mode() {
+                Mode::Triangles => corners / 3,
+                Mode::TriangleStrip | Mode::TriangleFan => corners.saturating_sub(2),
+                _ => 0,
+            };
+            self.left = self.left.checked_sub(n).ok_or_else(|| {
+                SceneError::new(format!(
+                    "mesh {} primitive {}: the scene has more than {} triangles, the most this loader accepts",
+                    mesh.index(),
+                    prim.index(),
+                    self.limit
+                ))
+            })?;
+        }
+        Ok(())
+    }
 }
 
 fn check_len(at: &dyn Fn(&str) -> String, name: &str, len: Option<usize>, expected: usize) -> Result<(), SceneError> {

@@ -14,6 +14,7 @@ pub mod effects;
 mod geometry;
 mod materials;
 mod uri;
+mod validate;
 
 use crate::tracer::Scene;
 use std::path::Path;
@@ -76,16 +77,33 @@ impl Parsed {
     }
 }
 
+/// Triangles [`parse`] accepts; a coordinator configures its own limit with [`parse_limited`].
+pub const DEFAULT_MAX_TRIANGLES: u64 = 50_000_000;
+
 /// Parses and validates a glTF document without building acceleration structures.
 pub fn parse(bytes: &[u8], base: Option<&Path>) -> Result<Parsed, SceneError> {
-    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| SceneError::new(format!("invalid glTF: {e}")))?;
+    parse_limited(bytes, base, DEFAULT_MAX_TRIANGLES)
+}
+
+/// [`parse`] refusing scenes of more than `max_triangles` triangles before reading their
+/// vertices (counted from accessor counts, so a "triangle bomb" costs no memory).
+pub fn parse_limited(bytes: &[u8], base: Option<&Path>, max_triangles: u64) -> Result<Parsed, SceneError> {
+    // gltf-json 1.4's validator indexes `accessors[POSITION]` unchecked and panics on an index
+    // out of range: turn that into an error naming the attribute.
+    if bytes.iter().all(u8::is_ascii_whitespace) {
+        return Err(SceneError::new("invalid glTF: the scene is empty"));
+    }
+    validate::glb_container(bytes).map_err(|e| SceneError::new(format!("invalid glTF: {e}")))?;
+    let gltf = std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes))
+        .map_err(|_| SceneError::new(format!("invalid glTF: {}", validate::explain_panic(bytes))))?
+        .map_err(|e| SceneError::new(format!("invalid glTF: {}", e.to_string().trim_start_matches("invalid glTF: "))))?;
     let doc = gltf.document;
     let buffers = uri::load_buffers(&doc, base, gltf.blob)?;
     let textures = materials::load_textures(&doc, base, &buffers)?;
     let mut materials = materials::load_materials(&doc, textures.len())?;
     // Defence in depth: accessors are bounds-checked first, but a panic inside the gltf crate on
     // some input we did not foresee must still become an error, not a crashed worker.
-    let parts = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| geometry::load(&doc, &buffers, materials.len())))
+    let parts = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| geometry::load(&doc, &buffers, materials.len(), max_triangles)))
         .map_err(|_| SceneError::new("malformed mesh data (the glTF reader failed on it)"))??;
     // Primitives without a material use glTF's default material, appended last.
     materials.push(materials::default_material());
@@ -110,3 +128,7 @@ mod tests_formats;
 
 #[cfg(test)]
 mod tests_far;
+#[cfg(test)]
+mod tests_fuzz;
+#[cfg(test)]
+mod tests_hostile;

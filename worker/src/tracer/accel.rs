@@ -68,9 +68,22 @@ impl Accel {
         let mut build_time = Duration::default();
         let (tree, prim_ids) = match kind {
             BvhKind::Wide => {
-                let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&obvhs_tris, params, &mut build_time);
-                let ids = bvh.primitive_indices.clone();
-                (Tree::Wide(bvh), ids)
+                // obvhs traverses a wide tree with a fixed 32-entry stack and asserts (debug
+                // builds only) that the tree is shallower; release builds would silently drop
+                // nodes and miss hits. Pathological geometry (found by fuzzing) builds deeper
+                // trees: those get the binary tree, whose traversal stack grows.
+                let build = || obvhs::cwbvh::builder::build_cwbvh_from_tris(&obvhs_tris, params, &mut build_time);
+                match std::panic::catch_unwind(std::panic::AssertUnwindSafe(build)) {
+                    Ok(bvh) if wide_depth(&bvh) < WIDE_STACK => {
+                        let ids = bvh.primitive_indices.clone();
+                        (Tree::Wide(bvh), ids)
+                    }
+                    _ => {
+                        let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time);
+                        let ids = bvh.primitive_indices.clone();
+                        (Tree::Binary(bvh), ids)
+                    }
+                }
             }
             BvhKind::Binary => {
                 let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time);
@@ -141,6 +154,27 @@ impl Accel {
         };
         Some((r, WatertightRay::new(origin, ray.dir)))
     }
+}
+
+/// obvhs's wide-tree traversal stack (`TRAVERSAL_STACK_SIZE`, private there).
+const WIDE_STACK: u32 = 32;
+
+/// Depth of a wide BVH, walked as obvhs's own validation does.
+fn wide_depth(bvh: &CwBvh) -> u32 {
+    let mut stack = vec![(0usize, 0u32)];
+    let mut deepest = 0;
+    while let Some((i, depth)) = stack.pop() {
+        deepest = deepest.max(depth);
+        let Some(node) = bvh.nodes.get(i) else { continue };
+        for (ch, meta) in node.child_meta.iter().enumerate() {
+            let slot = (meta & 0b11111).checked_sub(24);
+            if let Some(slot) = slot.filter(|_| node.imask & (1 << ch) != 0) {
+                let before = (node.imask as u32 & !(u32::MAX << slot)).count_ones();
+                stack.push((node.child_base_idx as usize + before as usize, depth + 1));
+            }
+        }
+    }
+    deepest
 }
 
 /// The unit geometric normal (counter-clockwise winding), computed in f64; None for a
