@@ -195,3 +195,7 @@ macro_rules! dispatch_kernel {
         }
     }};
 }
+
+#[cfg(test)]
+#[path = "effects_tests.rs"]
+mod tests;
