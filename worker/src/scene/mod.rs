@@ -111,3 +111,6 @@ mod tests_formats;
 
 #[cfg(test)]
 mod tests_far;
+
+#[cfg(test)]
+mod tests_effects;
