@@ -620,7 +620,120 @@ def scene_punctual() -> dict:
     return g.finish()
 
 
+def glass_material(name: str, roughness: float, volume: dict | None = None,
+                   tint: Vec3 = (1.0, 1.0, 1.0)) -> dict:
+    """KHR_materials_transmission glass (ior 1.5); thin-walled unless `volume` is given."""
+    ext: dict = {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+                 "KHR_materials_ior": {"ior": 1.5}}
+    if volume is not None:
+        ext["KHR_materials_volume"] = volume
+    return {"name": name, "pbrMetallicRoughness": {"baseColorFactor": list(tint) + [1.0],
+            "metallicFactor": 0.0, "roughnessFactor": roughness}, "extensions": ext}
+
+
+def _lit_floor(g: Gltf, light_radiance: float = 10.0) -> None:
+    """A grey floor and a rectangular area light above it (shared by the effect scenes)."""
+    floor_m = g.material(lambert("floor_grey", (0.5, 0.5, 0.5)))
+    e, s = radiance_to_emissive((light_radiance,) * 3)
+    light_m = g.material(lambert("light", (0.78, 0.78, 0.78), e, s))
+    g.node("floor", mesh=g.flat_mesh("floor", rect_y(-3.0, 3.0, -3.0, 3.0, 0.0, True), floor_m))
+    g.node("light", mesh=g.flat_mesh("light", rect_y(-0.8, 0.8, -0.6, 0.2, 1.8, False), light_m))
+
+
+def scene_glass() -> dict:
+    g = Gltf("Glass: a smooth solid sphere and a rough thin pane")
+    _lit_floor(g)
+    sphere_m = g.material(glass_material("glass_smooth", 0.0, {"thicknessFactor": 0.5}))
+    pane_m = g.material(glass_material("glass_rough_thin", 0.3))
+    g.node("sphere", translation=(-0.35, 0.3, 0.0),
+           mesh=g.mesh_from_accessors("sphere", *_sphere_accessors(g, 0.3), sphere_m))
+    pane = [((0.1, 0.0, 0.2), (0.8, 0.0, 0.2), (0.8, 0.7, 0.2)), ((0.1, 0.0, 0.2), (0.8, 0.7, 0.2), (0.1, 0.7, 0.2))]
+    g.node("pane", mesh=g.flat_mesh("pane", pane, pane_m))
+    red = g.material(lambert("red", (0.7, 0.15, 0.1)))
+    g.node("box", translation=(0.45, 0.15, -0.4), mesh=g.flat_mesh("box", box_triangles((0.3, 0.3, 0.3)), red))
+    g.camera("Camera", 0.7, (0.0, 0.9, 2.6), (0.0, 0.3, 0.0))
+    return g.finish()
+
+
+def scene_absorption() -> dict:
+    g = Gltf("Absorbing glass: green glass sphere and slab (Beer-Lambert)")
+    _lit_floor(g)
+    vol = {"thicknessFactor": 0.5, "attenuationDistance": 0.3, "attenuationColor": [0.4, 0.9, 0.5]}
+    m = g.material(glass_material("green_glass", 0.0, vol))
+    g.node("sphere", translation=(-0.4, 0.3, 0.0),
+           mesh=g.mesh_from_accessors("sphere", *_sphere_accessors(g, 0.3), m))
+    g.node("slab", translation=(0.45, 0.3, 0.0), mesh=g.flat_mesh("slab", box_triangles((0.5, 0.6, 0.15)), m))
+    g.camera("Camera", 0.7, (0.0, 0.9, 2.6), (0.0, 0.3, 0.0))
+    return g.finish()
+
+
+def scene_depth_of_field() -> dict:
+    g = Gltf("Depth of field: boxes at 3 depths, thin lens focused on the middle one")
+    _lit_floor(g)
+    colours = [(0.7, 0.15, 0.1), (0.15, 0.6, 0.15), (0.1, 0.2, 0.7)]
+    for k, (c, z) in enumerate(zip(colours, (1.0, 0.0, -1.5))):
+        m = g.material(lambert("box%d" % k, c))
+        g.node("box%d" % k, translation=(-0.6 + 0.6 * k, 0.15, z),
+               mesh=g.flat_mesh("box%d" % k, box_triangles((0.3, 0.3, 0.3)), m))
+    eye, target = (0.0, 0.8, 3.0), (0.0, 0.15, 0.0)
+    g.camera("Camera", 0.7, eye, target)
+    focus = math.sqrt(sum((a - b) ** 2 for a, b in zip(eye, target)))
+    g.doc["cameras"][-1]["extras"] = {"aperture_radius": 0.05, "focus_distance": round(focus, 6)}
+    return g.finish()
+
+
+def png_rgba(width: int, height: int, pixel) -> bytes:
+    """A minimal RGBA8 PNG (stdlib zlib); pixel(x, y) -> (r, g, b, a) in 0..255."""
+    import zlib
+    rows = b"".join(b"\x00" + bytes(c for x in range(width) for c in pixel(x, y)) for y in range(height))
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b"")
+
+
+def scene_alpha_mask() -> dict:
+    g = Gltf("Alpha mask: a card with a cut-out checker (texture alpha) and a half-cut card (factor)")
+    _lit_floor(g)
+    png = png_rgba(8, 8, lambda x, y: (230, 200, 60, 255 if (x + y) % 2 == 0 else 0))
+    view = g._view(png, None)
+    g.doc["images"] = [{"bufferView": view, "mimeType": "image/png"}]
+    g.doc["samplers"] = [{"magFilter": 9728, "minFilter": 9728, "wrapS": 33071, "wrapT": 33071}]
+    g.doc["textures"] = [{"source": 0, "sampler": 0}]
+    card = g.material({"name": "checker_card", "alphaMode": "MASK", "alphaCutoff": 0.5, "doubleSided": True,
+                       "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0,
+                                                "roughnessFactor": 1.0, "baseColorTexture": {"index": 0}},
+                       "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}})
+    pos = [(-0.9, 0.05, 0.0), (-0.1, 0.05, 0.0), (-0.1, 0.85, 0.0), (-0.9, 0.85, 0.0)]
+    uv = [(0.0, 1.0), (1.0, 1.0), (1.0, 0.0), (0.0, 0.0)]
+    a_pos = g.vec3_accessor(pos, with_bounds=True)
+    a_nrm = g.vec3_accessor([(0.0, 0.0, 1.0)] * 4, with_bounds=False)
+    flat = [f32(c) for t in uv for c in t]
+    uv_view = g._view(struct.pack("<%df" % len(flat), *flat), ARRAY_BUFFER)
+    g.doc["accessors"].append({"bufferView": uv_view, "byteOffset": 0, "componentType": FLOAT,
+                               "count": 4, "type": "VEC2"})
+    a_uv = len(g.doc["accessors"]) - 1
+    a_idx = g.index_accessor([0, 1, 2, 0, 2, 3])
+    g.doc["meshes"].append({"name": "card", "primitives": [{
+        "attributes": {"POSITION": a_pos, "NORMAL": a_nrm, "TEXCOORD_0": a_uv},
+        "indices": a_idx, "material": card, "mode": 4}]})
+    g.node("card", mesh=len(g.doc["meshes"]) - 1)
+    faint = g.material({"name": "faint_card", "alphaMode": "MASK", "alphaCutoff": 0.5,
+                        "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.8, 0.3], "metallicFactor": 0.0,
+                                                 "roughnessFactor": 1.0},
+                        "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}})
+    quad = [((0.1, 0.05, 0.0), (0.9, 0.05, 0.0), (0.9, 0.85, 0.0)), ((0.1, 0.05, 0.0), (0.9, 0.85, 0.0), (0.1, 0.85, 0.0))]
+    g.node("faint_card", mesh=g.flat_mesh("faint_card", quad, faint))
+    g.camera("Camera", 0.7, (0.0, 0.9, 2.6), (0.0, 0.4, 0.0))
+    return g.finish()
+
+
 SCENES = {
+    "absorption.gltf": scene_absorption,
+    "alpha-mask.gltf": scene_alpha_mask,
+    "depth-of-field.gltf": scene_depth_of_field,
+    "glass.gltf": scene_glass,
     "cornell-box.gltf": scene_cornell_box,
     "furnace.gltf": scene_furnace,
     "glossy.gltf": scene_glossy,

@@ -8,6 +8,10 @@ pub const SCENES: &[(&str, &[u8])] = &[
     ("glossy", include_bytes!("../../scenes/glossy.gltf")),
     ("phong", include_bytes!("../../scenes/phong.gltf")),
     ("punctual", include_bytes!("../../scenes/punctual.gltf")),
+    ("glass", include_bytes!("../../scenes/glass.gltf")),
+    ("absorption", include_bytes!("../../scenes/absorption.gltf")),
+    ("depth-of-field", include_bytes!("../../scenes/depth-of-field.gltf")),
+    ("alpha-mask", include_bytes!("../../scenes/alpha-mask.gltf")),
 ];
 
 pub fn get(name: &str) -> Option<&'static [u8]> {

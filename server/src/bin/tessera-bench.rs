@@ -4,12 +4,14 @@
 //!                              coordinator + 1 worker over loopback HTTP; prints both and the ratio.
 //! `tessera-bench roundtrips` — a coordinator on one core fed by fake workers that return
 //!                              results instantly; prints unit round trips per second and merge cost.
+//! `tessera-bench effects`    — the tracer alone on one scene with the gated kernel, the matte
+//!                              kernel (Lambert + lights only) and every effect forced on.
 use clap::{Parser, Subcommand};
 use std::time::{Duration, Instant};
 use tessera_proto::{JobRequest, PartialSums, TileRect, WirePixel};
 use tessera_server::bundled;
 use tessera_worker::client::render_settings;
-use tessera_worker::tracer::{Tile, render_tile};
+use tessera_worker::tracer::{KernelBits, Tile, render_tile, render_tile_kernel};
 
 #[derive(Parser)]
 #[command(about = "Tessera benchmarks: print figures, assert nothing")]
@@ -35,6 +37,18 @@ enum Cmd {
         #[arg(long, default_value_t = 16)]
         batch_spp: u32,
     },
+    /// Effect gating: gated vs matte-only vs all-effects kernels on the same frame.
+    Effects {
+        #[arg(long, default_value = "cornell-box")]
+        scene: String,
+        #[arg(long, default_value_t = 256)]
+        size: u32,
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        /// Rounds of the three kernels, interleaved; the fastest of each is reported.
+        #[arg(long, default_value_t = 7)]
+        repeats: u32,
+    },
     /// Unit round trips per second through a one-core coordinator.
     Roundtrips {
         #[arg(long, default_value_t = 5.0)]
@@ -51,6 +65,7 @@ fn main() -> anyhow::Result<()> {
     match Cli::parse().cmd {
         Cmd::Overhead { scene, size, spp, repeats, batch_spp } => overhead(&scene, size, spp, repeats, batch_spp),
         Cmd::Roundtrips { seconds, workers, tile } => roundtrips(seconds, workers, tile),
+        Cmd::Effects { scene, size, spp, repeats } => effects(&scene, size, spp, repeats),
     }
 }
 
@@ -109,6 +124,39 @@ fn overhead(scene_name: &str, size: u32, spp: u32, repeats: u32, batch: u32) -> 
     println!("  tracer alone           {alone:8.3} s  {:>10.0} samples/s", samples / alone);
     println!("  coordinator + 1 worker {farm:8.3} s  {:>10.0} samples/s (incl. scene load, EXR encode and download)", samples / farm);
     println!("  overhead               {:+7.2} %", (farm / alone - 1.0) * 100.0);
+    Ok(())
+}
+
+fn effects(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Result<()> {
+    let scene = bundled::load(scene_name)?;
+    let params = tessera_proto::RenderParams {
+        width: size,
+        height: size,
+        seed: 0,
+        estimator: "mis".into(),
+        sampler: "sobol".into(),
+        camera: None,
+        max_depth: 1024,
+        background: [0.0; 3],
+    };
+    let settings = render_settings(&params).map_err(anyhow::Error::msg)?;
+    let gated_bits = scene.effects_for(scene.camera(None).map_err(anyhow::Error::msg)?, settings.background).kernel();
+    let kernels = [("gated", None), ("matte only", Some(KernelBits::MATTE)), ("all effects on", Some(KernelBits::ALL))];
+    let never = std::sync::atomic::AtomicBool::new(false);
+    let mut best = [f64::INFINITY; 3];
+    for _ in 0..repeats {
+        // Interleaved so that machine load drifts hit all three alike.
+        for (k, (_, bits)) in kernels.iter().enumerate() {
+            let t = Instant::now();
+            render_tile_kernel(&scene, &settings, settings.full_frame(), 0..spp, &never, *bits).map_err(anyhow::Error::msg)?;
+            best[k] = best[k].min(t.elapsed().as_secs_f64());
+        }
+    }
+    let samples = size as f64 * size as f64 * spp as f64;
+    println!("effects: {scene_name} {size}x{size} {spp} spp, effects {:?}, gated kernel bits {:#06b}, fastest of {repeats}", scene.effects.names(), gated_bits.0);
+    for (k, (name, _)) in kernels.iter().enumerate() {
+        println!("  {name:<15} {:8.3} s  {:>10.0} samples/s  {:+6.2} % vs matte", best[k], samples / best[k], (best[k] / best[1] - 1.0) * 100.0);
+    }
     Ok(())
 }
 

@@ -1,4 +1,5 @@
-//! Which light-transport features a scene calls for, by name.
+//! Which light-transport features a scene calls for, by name (see
+//! [`crate::tracer::effects::Effects`] for the list and the kernels they select).
 //!
 //! | effect               | when                                                   |
 //! |----------------------|--------------------------------------------------------|
@@ -8,38 +9,25 @@
 //! | `ggx`                | a material has a microfacet specular layer or is metal |
 //! | `phong`              | a material uses `TESSERA_materials_phong`              |
 //! | `textures`           | a material reads a texture                             |
+//! | `glass`              | a material transmits (`KHR_materials_transmission`)    |
+//! | `absorption`         | a glass material has a volume with finite `attenuationDistance` |
+//! | `alpha_mask`         | a material has `alphaMode: MASK`                       |
+//! | `depth_of_field`     | a camera has a non-zero `extras.aperture_radius`       |
 //!
 //! The job adds `background` when it sets a non-black background.
+use crate::tracer::camera::Camera;
+use crate::tracer::effects::Effects;
 use crate::tracer::light::Light;
-use crate::tracer::material::{Material, MaterialModel};
+use crate::tracer::material::Material;
 use crate::tracer::scene::Mesh;
-use crate::tracer::texture::Texture;
-use std::collections::BTreeSet;
 
-pub fn of(mesh: &Mesh, materials: &[Material], _textures: &[Texture], lights: &[Light]) -> Vec<String> {
-    let mut e = BTreeSet::new();
-    let used: BTreeSet<u32> = mesh.material.iter().copied().collect();
-    for m in used.iter().filter_map(|&i| materials.get(i as usize)) {
-        if m.is_emissive() {
-            e.insert("area_lights");
-        }
-        match &m.model {
-            MaterialModel::Pbr(p) if p.metallic == 0.0 && p.specular == 0.0 => e.insert("lambert"),
-            MaterialModel::Pbr(_) => e.insert("ggx"),
-            MaterialModel::Phong(_) => e.insert("phong"),
-        };
-        if m.base_color_texture.is_some() {
-            e.insert("textures");
-        }
+pub fn of(mesh: &Mesh, materials: &[Material], cameras: &[Camera], lights: &[Light]) -> Vec<String> {
+    let mut used = vec![false; materials.len()];
+    mesh.material.iter().for_each(|&m| used[m as usize] = true);
+    let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
+    let mut e = Effects::analyse(used_materials, lights);
+    if cameras.iter().any(Camera::has_depth_of_field) {
+        e = e | Effects::DEPTH_OF_FIELD;
     }
-    for l in lights {
-        e.insert(match l {
-            Light::Point { .. } => "point_lights",
-            Light::Spot { .. } => "spot_lights",
-            Light::Directional { .. } => "directional_lights",
-            Light::Triangle { .. } => "area_lights",
-            Light::Background { .. } => "background",
-        });
-    }
-    e.into_iter().map(str::to_string).collect()
+    e.names()
 }

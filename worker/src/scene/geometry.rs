@@ -91,7 +91,29 @@ fn camera(node: &gltf::Node, cam: &gltf::Camera, p: &gltf::camera::Perspective, 
         return Err(SceneError::new(format!("camera {}: yfov {yfov} is not in (0, π)", cam.index())));
     }
     let name = cam.name().or(node.name()).map_or_else(|| format!("camera{}", cam.index()), str::to_string);
-    Ok(Camera { name, to_world: world, yfov })
+    let (aperture_radius, focus_distance) = lens(cam).map_err(|e| SceneError::new(format!("camera {}: {e}", cam.index())))?;
+    Ok(Camera { name, to_world: world, yfov, aperture_radius, focus_distance })
+}
+
+/// The thin lens from the camera's `extras`: `{"aperture_radius": metres, "focus_distance":
+/// metres}`; a pinhole (radius 0) when absent. A non-zero aperture needs a focus distance.
+fn lens(cam: &gltf::Camera) -> Result<(f32, f32), String> {
+    let Some(raw) = cam.extras() else { return Ok((0.0, 1.0)) };
+    let v: serde_json::Value = serde_json::from_str(raw.get()).map_err(|e| format!("extras: {e}"))?;
+    let num = |key: &str| match v.get(key) {
+        None => Ok(None),
+        Some(x) => x.as_f64().map(|f| Some(f as f32)).ok_or(format!("extras.{key} must be a number")),
+    };
+    let aperture = num("aperture_radius")?.unwrap_or(0.0);
+    if !(aperture.is_finite() && aperture >= 0.0) {
+        return Err(format!("extras.aperture_radius {aperture} must be finite and ≥ 0"));
+    }
+    match num("focus_distance")? {
+        Some(f) if f.is_finite() && f > 0.0 => Ok((aperture, f)),
+        Some(f) => Err(format!("extras.focus_distance {f} must be finite and > 0")),
+        None if aperture > 0.0 => Err("extras.aperture_radius needs extras.focus_distance".into()),
+        None => Ok((0.0, 1.0)),
+    }
 }
 
 fn punctual(light: &gltf::khr_lights_punctual::Light, world: Mat4) -> Result<Light, SceneError> {

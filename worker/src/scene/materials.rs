@@ -1,7 +1,7 @@
 //! glTF materials and textures → [`Material`] and [`Texture`].
 use super::{SceneError, uri};
 use crate::tracer::bsdf::{Pbr, Phong};
-use crate::tracer::material::{Material, MaterialModel, TextureRef};
+use crate::tracer::material::{Glass, Material, MaterialModel, TextureRef};
 use crate::tracer::texture::{Texture, Wrap, srgb_to_linear};
 use glam::{Vec3, Vec4};
 use std::path::Path;
@@ -16,7 +16,7 @@ const MAX_TEXTURE_PIXELS: u64 = 1 << 26;
 pub fn default_material() -> Material {
     // glTF 2.0 default: base colour 1, metallic 1, roughness 1.
     let pbr = Pbr::new(Vec3::ONE, 1.0, 1.0);
-    Material { name: "default".into(), model: MaterialModel::Pbr(pbr), base_color_texture: None, emission: Vec3::ZERO, double_sided: false }
+    Material { model: MaterialModel::Pbr(pbr), ..Material::lambert("default", Vec3::ONE) }
 }
 
 pub fn load_materials(doc: &gltf::Document, texture_count: usize) -> Result<Vec<Material>, SceneError> {
@@ -41,7 +41,45 @@ fn material(m: &gltf::Material, texture_count: usize) -> Result<Material, SceneE
         None => MaterialModel::Pbr(metallic_roughness(m, &pbr).map_err(at)?),
     };
     let name = m.name().map_or_else(|| format!("material{i}"), str::to_string);
-    Ok(Material { name, model, base_color_texture, emission, double_sided: m.double_sided() })
+    let alpha = pbr.base_color_factor()[3];
+    let alpha_cutoff = match m.alpha_mode() {
+        gltf::material::AlphaMode::Mask => Some(m.alpha_cutoff().unwrap_or(0.5)),
+        _ => None,
+    };
+    if !(0.0..=1.0).contains(&alpha) || alpha_cutoff.is_some_and(|c| !(c.is_finite() && c >= 0.0)) {
+        return Err(at(format!("alpha {alpha} must be in [0, 1] and alphaCutoff finite and ≥ 0")));
+    }
+    let glass = glass(m, &pbr).map_err(at)?;
+    Ok(Material { name, model, base_color_texture, emission, double_sided: m.double_sided(), alpha, alpha_cutoff, glass })
+}
+
+/// `KHR_materials_transmission` (+ `_ior`, `_volume`) → [`Glass`]; None without transmission.
+/// Transmission, thickness and volume textures are not read (their factors are).
+fn glass(m: &gltf::Material, pbr: &gltf::material::PbrMetallicRoughness) -> Result<Option<Glass>, String> {
+    let Some(t) = m.transmission() else { return Ok(None) };
+    let factor = t.transmission_factor();
+    if !(0.0..=1.0).contains(&factor) {
+        return Err(format!("transmissionFactor {factor} is outside [0, 1]"));
+    }
+    let weight = factor * (1.0 - pbr.metallic_factor());
+    if weight <= 0.0 {
+        return Ok(None);
+    }
+    let ior = m.ior().unwrap_or(1.5);
+    let roughness = pbr.roughness_factor();
+    let volume = m.volume().filter(|v| v.thickness_factor() > 0.0);
+    let sigma_a = match &volume {
+        Some(v) => {
+            let (colour, distance) = (Vec3::from(v.attenuation_color()), v.attenuation_distance());
+            if !(distance > 0.0) || !(colour.min_element() > 0.0 && colour.max_element() <= 1.0) {
+                return Err(format!("KHR_materials_volume: attenuationDistance {distance} must be > 0 and attenuationColor {colour} in (0, 1]"));
+            }
+            // Infinite distance (the default) means no absorption.
+            if distance.is_finite() { -colour.map(f32::ln) / distance } else { Vec3::ZERO }
+        }
+        None => Vec3::ZERO,
+    };
+    Ok(Some(Glass { weight, ior, alpha: roughness * roughness, thin: volume.is_none(), sigma_a }))
 }
 
 fn metallic_roughness(m: &gltf::Material, pbr: &gltf::material::PbrMetallicRoughness) -> Result<Pbr, String> {

@@ -4,8 +4,9 @@
 //! node of the default scene with its transform; indexed and non-indexed triangles, strips and
 //! fans; normals (flat where missing); two UV sets; the metallic-roughness material with
 //! `KHR_materials_specular`, `KHR_materials_ior`, `KHR_materials_emissive_strength`, base-colour
-//! textures (PNG/JPEG) and the project's `TESSERA_materials_phong`; perspective cameras;
-//! `KHR_lights_punctual`.
+//! textures (PNG/JPEG) and the project's `TESSERA_materials_phong`; `KHR_materials_transmission`
+//! and `KHR_materials_volume` (glass, absorption); `alphaMode: MASK`; perspective cameras with an
+//! optional thin lens in `extras`; `KHR_lights_punctual`.
 //!
 //! Every error names what is wrong and where ("mesh 3 primitive 0: POSITION accessor count 0").
 //! External files may only be plain relative paths below the scene's own directory.
@@ -73,7 +74,7 @@ impl Parsed {
 
     /// The light-transport features this scene calls for (see [`effects`]).
     pub fn effects(&self) -> Vec<String> {
-        effects::of(&self.mesh, &self.materials, &self.textures, &self.lights)
+        effects::of(&self.mesh, &self.materials, &self.cameras, &self.lights)
     }
 }
 
@@ -132,3 +133,5 @@ mod tests_far;
 mod tests_fuzz;
 #[cfg(test)]
 mod tests_hostile;
+#[cfg(test)]
+mod tests_effects;

@@ -97,13 +97,21 @@ impl Accel {
     }
 
     /// Closest hit with 0 < t < t_max.
+    #[inline]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        self.intersect_where(ray, t_max, |_, _, _| true)
+    }
+
+    /// Closest hit with 0 < t < t_max among those `keep(triangle, b1, b2)` accepts (an any-hit
+    /// filter, e.g. alpha masks: rejected hits do not shorten the ray).
+    #[inline]
+    pub fn intersect_where(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool) -> Option<Hit> {
         let (obvhs_ray, wt) = self.tree_ray(ray, t_max)?;
         let mut best: Option<(u32, f32, f32)> = None;
         let mut closest = |r: &obvhs::ray::Ray, slot: usize| -> f32 {
             match intersect_triangle(&wt, &self.verts[slot], r.tmax) {
                 // obvhs accepts only t strictly below tmax; a tie (a shared edge) keeps the first.
-                Some((t, b1, b2)) if t < r.tmax => {
+                Some((t, b1, b2)) if t < r.tmax && keep(self.prim_ids[slot], b1, b2) => {
                     best = Some((slot as u32, b1, b2));
                     t
                 }
@@ -126,10 +134,20 @@ impl Accel {
     }
 
     /// Whether anything blocks the ray on 0 < t < t_max.
+    #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        self.occluded_where(ray, t_max, |_, _, _| true)
+    }
+
+    /// Whether a hit `keep(triangle, b1, b2)` accepts blocks the ray on 0 < t < t_max.
+    #[inline]
+    pub fn occluded_where(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool) -> bool {
         let Some((obvhs_ray, wt)) = self.tree_ray(ray, t_max) else { return false };
         let any = |r: &obvhs::ray::Ray, slot: usize| -> f32 {
-            intersect_triangle(&wt, &self.verts[slot], r.tmax).map_or(f32::INFINITY, |h| h.0)
+            match intersect_triangle(&wt, &self.verts[slot], r.tmax) {
+                Some((t, b1, b2)) if keep(self.prim_ids[slot], b1, b2) => t,
+                _ => f32::INFINITY,
+            }
         };
         match &self.tree {
             Tree::Wide(b) => !b.ray_traverse_miss(obvhs_ray, any),

@@ -13,12 +13,20 @@
 //! Russian roulette is unbiased: a path that survives with probability q is divided by q.
 //! Surfaces are black from behind unless their material is double-sided (rays do not pass
 //! through the back of a single-sided triangle; that would leak light into closed rooms).
+//! Glass is always two-sided, and is the only surface rays pass through.
+//!
+//! The loop is generic over an [`EffectSet`]: code for glass (transmission, absorption), alpha
+//! masks and textured/non-Lambert surfaces is inside `if E::… {}` blocks that vanish from
+//! kernels without them. A smooth glass bounce is a delta: no light sample is taken there, and
+//! emission found after it counts in full for every estimator.
 use crate::tracer::bsdf::{Bsdf, BsdfSample};
+use crate::tracer::effects::{AllEffects, EffectSet};
 use crate::tracer::light::{LightSet, Target};
-use crate::tracer::ray::{ErrPoint, Ray, SHADOW_EPSILON};
+use crate::tracer::ray::{Ray, SHADOW_EPSILON};
 use crate::tracer::sampler::Sampler;
-use crate::tracer::sampling::{Frame, power_heuristic};
+use crate::tracer::sampling::power_heuristic;
 use crate::tracer::scene::{NO_LIGHT, Scene};
+use crate::tracer::surface::Surface;
 use glam::{Vec2, Vec3};
 use std::str::FromStr;
 
@@ -92,21 +100,9 @@ pub struct PathSample {
 }
 
 pub struct Integrator<'a> {
-    scene: &'a Scene,
-    lights: LightSet<'a>,
+    pub(crate) scene: &'a Scene,
+    pub(crate) lights: LightSet<'a>,
     settings: PathSettings,
-}
-
-/// What the integrator needs to know about a hit.
-struct Surface {
-    p: ErrPoint,
-    /// Geometric normal, facing the incoming ray for double-sided materials.
-    ng: Vec3,
-    frame: Frame,
-    wo: Vec3,
-    bsdf: Option<Bsdf>,
-    le: Vec3,
-    light: u32,
 }
 
 /// The previous bounce, for MIS weights of emission found by a BSDF-sampled ray.
@@ -115,6 +111,8 @@ struct Bounce {
     p: Vec3,
     n: Vec3,
     bsdf_pdf: f32,
+    /// A delta bounce: light sampling could not have found what this ray finds.
+    specular: bool,
 }
 
 impl<'a> Integrator<'a> {
@@ -123,16 +121,29 @@ impl<'a> Integrator<'a> {
         Integrator { scene, lights, settings }
     }
 
-    pub fn li(&self, mut ray: Ray, sampler: &mut Sampler) -> PathSample {
+    /// Radiance along `ray` with every effect compiled in.
+    pub fn li(&self, ray: Ray, sampler: &mut Sampler) -> PathSample {
+        self.li_for::<AllEffects>(ray, sampler)
+    }
+
+    /// Radiance along `ray` by kernel `E` (see [`crate::tracer::effects`]).
+    pub fn li_for<E: EffectSet>(&self, mut ray: Ray, sampler: &mut Sampler) -> PathSample {
         let est = self.settings.estimator;
         let (mut l, mut beta, mut max_weight) = (Vec3::ZERO, Vec3::ONE, 1.0f32);
         let mut prev: Option<Bounce> = None;
+        // Absorption coefficient of the medium the ray travels in (zero: air).
+        let mut medium = Vec3::ZERO;
         for depth in 0.. {
-            let Some(s) = self.surface(&ray) else {
+            let u_glass = if E::GLASS { sampler.get_1d() } else { 0.0 };
+            let hit = self.surface::<E>(&ray, u_glass);
+            if E::GLASS && medium != Vec3::ZERO {
+                beta *= transmittance(medium, hit.as_ref().map_or(f32::INFINITY, |s| s.dist));
+            }
+            let Some(s) = hit else {
                 l += beta * self.escaped(est, prev, ray.dir);
                 break;
             };
-            if est == Estimator::Naive {
+            let bs = if est == Estimator::Naive {
                 // The seed's first tracer: emit or reflect, each with probability ½.
                 let (u_choice, u_dir) = (sampler.get_1d(), sampler.get_2d());
                 if u_choice < 0.5 {
@@ -140,22 +151,29 @@ impl<'a> Integrator<'a> {
                     break;
                 }
                 let Some(bsdf) = s.bsdf.filter(|_| depth < self.settings.max_depth) else { break };
-                let Some(bs) = bsdf.sample_uniform(s.wo, u_dir) else { break };
-                let Some(w) = self.scatter(&s, &bs, &mut ray) else { break };
-                beta *= 2.0 * w;
+                // Uniform directions never hit a delta lobe: glass is sampled by its BSDF.
+                let bs = if E::GLASS && bsdf.transmits() { bsdf.sample(s.wo, (u_choice - 0.5) * 2.0, u_dir) } else { bsdf.sample_uniform(s.wo, u_dir) };
+                let Some(mut bs) = bs else { break };
+                bs.pdf *= 0.5;
+                bs
             } else {
                 l += beta * self.emitted(est, depth, prev, &s);
                 let (u_pick, u_light) = (sampler.get_1d(), sampler.get_2d());
                 let (u_lobe, u_dir) = (sampler.get_1d(), sampler.get_2d());
                 let Some(bsdf) = s.bsdf.filter(|_| depth < self.settings.max_depth) else { break };
-                if matches!(est, Estimator::Light | Estimator::Mis) {
-                    l += beta * self.direct(est, &s, &bsdf, u_pick, u_light);
+                let delta = E::GLASS && bsdf.is_specular();
+                if matches!(est, Estimator::Light | Estimator::Mis) && !delta && !self.lights.is_empty() {
+                    l += beta * self.direct::<E>(est, &s, &bsdf, medium, u_pick, u_light);
                 }
                 let Some(bs) = bsdf.sample(s.wo, u_lobe, u_dir) else { break };
-                let Some(w) = self.scatter(&s, &bs, &mut ray) else { break };
-                beta *= w;
-                prev = Some(Bounce { p: s.p.p, n: s.frame.n, bsdf_pdf: bs.pdf });
+                bs
+            };
+            let Some(w) = self.scatter::<E>(&s, &bs, &mut ray) else { break };
+            beta *= w;
+            if E::GLASS && bs.wi.z < 0.0 {
+                medium = s.medium_behind(medium);
             }
+            prev = Some(Bounce { p: s.p.p, n: s.frame.n, bsdf_pdf: bs.pdf, specular: bs.specular });
             if !beta.is_finite() {
                 // An overflowed throughput makes the sample meaningless (∞·0 later): report it
                 // as non-finite, so it is dropped and counted, and keep max_weight finite.
@@ -174,6 +192,7 @@ impl<'a> Integrator<'a> {
         let lb = self.lights.background();
         match (est, prev) {
             (Estimator::Naive | Estimator::Bsdf, _) | (_, None) => lb,
+            (_, Some(b)) if b.specular => lb,
             (Estimator::Light, Some(_)) => Vec3::ZERO,
             (Estimator::Mis, Some(b)) => {
                 let light_pdf = self.lights.pdf_background(b.n, dir.normalize());
@@ -189,6 +208,7 @@ impl<'a> Integrator<'a> {
         }
         match (est, prev) {
             (_, None) | (Estimator::Bsdf, _) => s.le,
+            (_, Some(b)) if b.specular => s.le,
             (Estimator::Mis, Some(b)) if s.light != NO_LIGHT => {
                 let light_pdf = self.lights.pdf_area(s.light, b.p, s.p.p);
                 s.le * power_heuristic(1.0, b.bsdf_pdf, 1.0, light_pdf)
@@ -199,77 +219,64 @@ impl<'a> Integrator<'a> {
     }
 
     /// Next-event estimation: one light sample, MIS-weighted for `Mis`.
-    fn direct(&self, est: Estimator, s: &Surface, bsdf: &Bsdf, u_pick: f32, u: Vec2) -> Vec3 {
+    fn direct<E: EffectSet>(&self, est: Estimator, s: &Surface, bsdf: &Bsdf, medium: Vec3, u_pick: f32, u: Vec2) -> Vec3 {
         let Some(ls) = self.lights.sample(s.p.p, s.frame.n, u_pick, u) else { return Vec3::ZERO };
-        if ls.wi.dot(s.ng) <= 0.0 {
-            return Vec3::ZERO;
-        }
         let wi = s.frame.to_local(ls.wi);
+        let side = ls.wi.dot(s.ng);
+        // Only glass sees lights behind the surface, and only where both normals agree.
+        let through = E::GLASS && bsdf.transmits() && side < 0.0 && wi.z < 0.0;
+        if !through && (side <= 0.0 || wi.z <= 0.0) {
+            return Vec3::ZERO;
+        }
         let f = bsdf.eval(s.wo, wi);
-        if f == Vec3::ZERO || wi.z <= 0.0 {
+        if f == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        let blocked = match ls.target {
-            Target::Point { p, ng } => self.scene.accel.occluded(&s.p.spawn_to(s.ng, &p, ng), 1.0 - SHADOW_EPSILON),
-            Target::Infinite => self.scene.accel.occluded(&s.p.spawn(s.ng, ls.wi), f32::INFINITY),
+        let (shadow, dist) = match ls.target {
+            Target::Point { p, ng } => (s.p.spawn_to(s.ng, &p, ng), (p.p - s.p.p).length()),
+            Target::Infinite => (s.p.spawn(s.ng, ls.wi), f32::INFINITY),
         };
-        if blocked {
+        let t_max = if dist.is_finite() { 1.0 - SHADOW_EPSILON } else { f32::INFINITY };
+        if self.occluded::<E>(&shadow, t_max) {
             return Vec3::ZERO;
         }
+        let tr = if E::GLASS {
+            let m = if through { s.medium_behind(medium) } else { medium };
+            if m == Vec3::ZERO { Vec3::ONE } else { transmittance(m, dist) }
+        } else {
+            Vec3::ONE
+        };
         let mis = if est == Estimator::Mis && !ls.delta {
             power_heuristic(1.0, ls.pdf, 1.0, bsdf.pdf(s.wo, wi))
         } else {
             1.0
         };
-        f * ls.li * (wi.z * mis / ls.pdf)
+        f * tr * ls.li * (wi.z.abs() * mis / ls.pdf)
     }
 
-    /// Continues the path along a BSDF sample; returns the throughput factor f·cos/pdf.
-    fn scatter(&self, s: &Surface, bs: &BsdfSample, ray: &mut Ray) -> Option<Vec3> {
+    /// Continues the path along a BSDF sample; returns the throughput factor f·|cos|/pdf.
+    fn scatter<E: EffectSet>(&self, s: &Surface, bs: &BsdfSample, ray: &mut Ray) -> Option<Vec3> {
         let wi = s.frame.to_world(bs.wi);
-        // A direction above the shading normal but below the surface would pass through it.
-        if wi.dot(s.ng) <= 0.0 || !(bs.pdf > 0.0) {
+        // A direction on one side of the shading normal but the other of the surface would
+        // pass through it (or, for glass, fail to).
+        let side = wi.dot(s.ng);
+        let ok = if E::GLASS && bs.wi.z < 0.0 { side < 0.0 } else { side > 0.0 };
+        if !ok || !(bs.pdf > 0.0) {
             return None;
         }
-        let w = bs.f * (bs.wi.z / bs.pdf);
+        let w = bs.f * (bs.wi.z.abs() / bs.pdf);
         if !w.is_finite() {
             return None;
         }
         *ray = s.p.spawn(s.ng, wi);
         Some(w)
     }
+}
 
-    fn surface(&self, ray: &Ray) -> Option<Surface> {
-        let hit = self.scene.accel.intersect(ray, f32::INFINITY)?;
-        let mesh = &self.scene.mesh;
-        let i = hit.prim as usize;
-        let b0 = 1.0 - hit.b1 - hit.b2;
-        let v = &mesh.positions[i];
-        let p = ErrPoint::from_barycentric(v, b0, hit.b1, hit.b2);
-        let mut ng = self.scene.face_normals[i];
-        let nv = &mesh.normals[i];
-        let mut ns = (nv[0] * b0 + nv[1] * hit.b1 + nv[2] * hit.b2).normalize_or(ng);
-        let wo_world = -ray.dir.normalize();
-        let material = &self.scene.materials[mesh.material[i] as usize];
-        let le = material.emitted(ng, wo_world);
-        if ns.dot(ng) < 0.0 {
-            ns = -ns;
-        }
-        let front = ng.dot(wo_world) > 0.0;
-        if !front && material.double_sided {
-            ng = -ng;
-            ns = -ns;
-        }
-        let uv_set = material.base_color_texture.map_or(0, |t| t.tex_coord.min(1) as usize);
-        let uvs = &mesh.uvs[i][uv_set];
-        let uv = uvs[0] * b0 + uvs[1] * hit.b1 + uvs[2] * hit.b2;
-        let bsdf = (front || material.double_sided)
-            .then(|| material.bsdf(uv, &self.scene.textures))
-            .filter(|b| !b.is_black());
-        let frame = Frame::from_normal(ns);
-        let wo = frame.to_local(wo_world);
-        Some(Surface { p, ng, frame, wo, bsdf, le, light: self.scene.tri_light[i] })
-    }
+/// Beer–Lambert: the fraction of light left after `dist` metres in a medium absorbing `sigma`
+/// per metre (channels with σ = 0 keep everything, even over an infinite distance).
+fn transmittance(sigma: Vec3, dist: f32) -> Vec3 {
+    Vec3::select(sigma.cmpgt(Vec3::ZERO), (-sigma * dist).exp(), Vec3::ONE)
 }
 
 /// Applies Russian roulette; false when the path stops. Survivors are reweighted by 1/q.

@@ -32,14 +32,14 @@ fn no_light_sample_exceeds_the_power_heuristic_bound_next_to_an_emitter() {
     let (mut lit, mut unweighted_max) = (0, 0.0f32);
     for d in [1e-1f32, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6] {
         let x = Vec3::new(-d, 0.0, 0.3);
-        let s = integrator.surface(&Ray::new(x + Vec3::Y, Vec3::NEG_Y)).expect("the floor");
+        let s = integrator.surface::<AllEffects>(&Ray::new(x + Vec3::Y, Vec3::NEG_Y), 0.0).expect("the floor");
         let bsdf = s.bsdf.expect("a Lambert floor");
         for _ in 0..20_000 {
             let (u_pick, u) = (rng.f32(), rng.vec2());
-            let c = integrator.direct(Estimator::Mis, &s, &bsdf, u_pick, u);
+            let c = integrator.direct::<AllEffects>(Estimator::Mis, &s, &bsdf, Vec3::ZERO, u_pick, u);
             assert!(c.is_finite() && c.max_element() <= bound * (1.0 + 1e-5), "d={d}: {c} > ρL/2 = {bound}");
             lit += (c.x > 0.0) as u32;
-            let raw = integrator.direct(Estimator::Light, &s, &bsdf, u_pick, u);
+            let raw = integrator.direct::<AllEffects>(Estimator::Light, &s, &bsdf, Vec3::ZERO, u_pick, u);
             unweighted_max = unweighted_max.max(raw.x);
         }
     }

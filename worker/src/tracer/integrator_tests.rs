@@ -35,7 +35,7 @@ pub(crate) fn camera_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
     let up = if f.cross(Vec3::Y).length() < 1e-6 { Vec3::Z } else { Vec3::Y };
     let right = f.cross(up).normalize();
     let to_world = Mat4::from_cols(right.extend(0.0), right.cross(f).extend(0.0), (-f).extend(0.0), eye.extend(1.0));
-    Camera { name: "test".into(), to_world, yfov }
+    Camera::pinhole("test", to_world, yfov)
 }
 
 pub(crate) fn settings(estimator: Estimator, roulette: Roulette, size: u32, background: Vec3) -> RenderSettings {

@@ -5,6 +5,7 @@
 pub mod accel;
 pub mod bsdf;
 pub mod camera;
+pub mod effects;
 pub mod film;
 pub mod integrator;
 pub mod light;
@@ -14,6 +15,7 @@ pub mod render;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;
+mod surface;
 pub mod texture;
 
 #[cfg(test)]
@@ -23,5 +25,6 @@ mod numerics;
 
 pub use film::{PixelSums, Tile, TileSums};
 pub use integrator::{Estimator, Roulette};
-pub use render::{RenderSettings, render_tile, render_tile_cancellable};
+pub use effects::{Effects, KernelBits};
+pub use render::{RenderSettings, render_tile, render_tile_cancellable, render_tile_kernel};
 pub use scene::Scene;

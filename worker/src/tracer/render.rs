@@ -3,6 +3,9 @@
 //! Each pixel's samples are summed in sample-index order by a single thread, and each sample's
 //! random numbers depend only on (seed, pixel, sample index, dimension), so the result is
 //! bit-identical whatever the thread count or the machine.
+use crate::dispatch_kernel;
+use crate::tracer::camera::RasterCamera;
+use crate::tracer::effects::{EffectSet, KernelBits};
 use crate::tracer::film::{PixelSums, Tile, TileSums};
 use crate::tracer::integrator::{Integrator, PathSettings};
 use crate::tracer::sampler::{Sampler, SamplerKind};
@@ -45,11 +48,38 @@ pub fn render_tile_cancellable(
     samples: Range<u32>,
     cancel: &AtomicBool,
 ) -> Result<Option<TileSums>, String> {
+    render_tile_kernel(scene, settings, tile, samples, cancel, None)
+}
+
+/// As [`render_tile_cancellable`] with the kernel chosen by the caller (None: the one the
+/// scene's effects select). A kernel with more effects than needed gives the same image in
+/// expectation, only slower (the "forced on" comparison, benchmarks).
+pub fn render_tile_kernel(
+    scene: &Scene,
+    settings: &RenderSettings,
+    tile: Tile,
+    samples: Range<u32>,
+    cancel: &AtomicBool,
+    kernel: Option<KernelBits>,
+) -> Result<Option<TileSums>, String> {
     if tile.x0 + tile.w > settings.width || tile.y0 + tile.h > settings.height {
         return Err(format!("tile {tile:?} exceeds the {}×{} image", settings.width, settings.height));
     }
-    let camera = scene.camera(settings.camera.as_deref())?.raster(settings.width, settings.height);
+    let camera = scene.camera(settings.camera.as_deref())?;
+    let kernel = kernel.unwrap_or_else(|| scene.effects_for(camera, settings.background).kernel());
+    let camera = camera.raster(settings.width, settings.height);
     let integrator = Integrator::new(scene, settings.background, settings.path);
+    Ok(dispatch_kernel!(kernel, render_rows(&integrator, &camera, settings, tile, samples, cancel)))
+}
+
+fn render_rows<E: EffectSet>(
+    integrator: &Integrator,
+    camera: &RasterCamera,
+    settings: &RenderSettings,
+    tile: Tile,
+    samples: Range<u32>,
+    cancel: &AtomicBool,
+) -> Option<TileSums> {
     let mut out = TileSums::new(tile);
     let rows: Vec<(u64, f32)> = out
         .pixels
@@ -68,8 +98,9 @@ pub fn render_tile_cancellable(
                 let px = tile.x0 + col as u32;
                 for index in samples.clone() {
                     let mut sampler = Sampler::start(settings.sampler, settings.seed, px, py, index);
-                    let ray = camera.ray(px, py, sampler.get_2d());
-                    let s = integrator.li(ray, &mut sampler);
+                    let jitter = sampler.get_2d();
+                    let ray = if E::DOF { camera.ray_lens(px, py, jitter, sampler.get_2d()) } else { camera.ray(px, py, jitter) };
+                    let s = integrator.li_for::<E>(ray, &mut sampler);
                     if s.radiance.is_finite() {
                         sums.add_sample(s.radiance);
                         max_weight = max_weight.max(s.max_weight);
@@ -82,13 +113,13 @@ pub fn render_tile_cancellable(
         })
         .collect();
     if cancel.load(Ordering::Relaxed) {
-        return Ok(None);
+        return None;
     }
     for (d, w) in rows {
         out.dropped += d;
         out.max_weight = out.max_weight.max(w);
     }
-    Ok(Some(out))
+    Some(out)
 }
 
 /// Mean radiance over a whole frame of sums (for tests and quick checks).

@@ -4,6 +4,7 @@
 //! read-only by every thread and every unit that renders it.
 use crate::tracer::accel::{Accel, BvhKind, triangle_normal};
 use crate::tracer::camera::Camera;
+use crate::tracer::effects::Effects;
 use crate::tracer::light::Light;
 use crate::tracer::material::Material;
 use crate::tracer::texture::Texture;
@@ -55,6 +56,9 @@ pub struct Scene {
     /// Centre and radius of a sphere bounding all geometry (for infinite lights).
     pub bounds_centre: Vec3,
     pub bounds_radius: f32,
+    /// The effects of the scene's used materials and its lights (not cameras, not the job's
+    /// background: see [`Scene::effects_for`]).
+    pub effects: Effects,
 }
 
 pub const NO_LIGHT: u32 = u32::MAX;
@@ -106,7 +110,23 @@ impl Scene {
         let (bounds_centre, bounds_radius) = bounding_sphere(&solid);
         let face_normals = mesh.positions.iter().map(|v| triangle_normal(v).map_or(Vec3::ZERO, |n| n.as_vec3())).collect();
         let accel = Accel::build(&mesh.positions, kind);
-        Scene { mesh, materials, textures, cameras, lights, tri_light, face_normals, accel, bounds_centre, bounds_radius }
+        let mut used = vec![false; materials.len()];
+        mesh.material.iter().for_each(|&m| used[m as usize] = true);
+        let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
+        let effects = Effects::analyse(used_materials, &lights);
+        Scene { mesh, materials, textures, cameras, lights, tri_light, face_normals, accel, bounds_centre, bounds_radius, effects }
+    }
+
+    /// The effects of a render through `camera` with the job's `background`.
+    pub fn effects_for(&self, camera: &Camera, background: Vec3) -> Effects {
+        let mut e = self.effects;
+        if camera.has_depth_of_field() {
+            e = e | Effects::DEPTH_OF_FIELD;
+        }
+        if background.max_element() > 0.0 {
+            e = e | Effects::BACKGROUND;
+        }
+        e
     }
 
     pub fn camera(&self, name: Option<&str>) -> Result<&Camera, String> {

@@ -1,23 +1,28 @@
 //! # BSDFs
 //!
-//! A closed set of reflection-only BSDFs, each documented in its own file:
-//! [`Lambert`] (ideal diffuse), [`Phong`] (the seed's modified Phong), [`Pbr`] (glTF 2.0
-//! metallic-roughness with KHR_materials_specular), built on the [`Ggx`] microfacet lobe.
+//! A closed set of BSDFs, each documented in its own file: [`Lambert`] (ideal diffuse),
+//! [`Phong`] (the seed's modified Phong), [`Pbr`] (glTF 2.0 metallic-roughness with
+//! KHR_materials_specular), built on the [`Ggx`] microfacet lobe, and [`Dielectric`] (glass,
+//! the only one that transmits).
 //!
 //! Everything works in the local shading frame: z is the shading normal, `wo` (toward the
 //! viewer) and `wi` (toward the light) both point away from the surface, cos θ = w.z.
-//! Unless wo.z > 0 and wi.z > 0, `eval` and `pdf` are 0 and sampling gives None; the
-//! integrator flips the frame for double-sided materials. `eval` excludes the cosine;
+//! For the reflective BSDFs, unless wo.z > 0 and wi.z > 0, `eval` and `pdf` are 0 and sampling
+//! gives None; the integrator flips the frame for double-sided materials. [`Dielectric`] takes
+//! wi on either side; its smooth form samples deltas (`BsdfSample::specular`), which `eval` and
+//! `pdf` give as 0. `eval` excludes the cosine;
 //! the path weight is f·cos θi/pdf. `pdf` is exactly the solid-angle density with which
 //! `sample` produces wi, including samplers that sometimes return None (so it may
 //! integrate to less than 1); MIS relies on that.
 
+pub mod dielectric;
 pub mod ggx;
 pub mod ggx_albedo;
 pub mod lambert;
 pub mod pbr;
 pub mod phong;
 
+pub use dielectric::Dielectric;
 pub use ggx::Ggx;
 pub use lambert::Lambert;
 pub use pbr::Pbr;
@@ -31,8 +36,11 @@ pub struct BsdfSample {
     pub wi: Vec3,
     /// f(wo, wi), without the cosine.
     pub f: Vec3,
-    /// Solid-angle density of the whole sampling strategy at wi; finite and > 0.
+    /// Solid-angle density of the whole sampling strategy at wi; finite and > 0. For a
+    /// `specular` sample: the probability of choosing that delta lobe.
     pub pdf: f32,
+    /// A delta direction (smooth glass): MIS and light sampling do not apply.
+    pub specular: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,6 +48,7 @@ pub enum Bsdf {
     Lambert(Lambert),
     Phong(Phong),
     Pbr(Pbr),
+    Dielectric(Dielectric),
 }
 
 fn both_above(wo: Vec3, wi: Vec3) -> bool {
@@ -48,41 +57,61 @@ fn both_above(wo: Vec3, wi: Vec3) -> bool {
 
 impl Bsdf {
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        if !both_above(wo, wi) {
+        if !both_above(wo, wi) && !self.transmits() {
             return Vec3::ZERO;
         }
         match self {
             Bsdf::Lambert(b) => b.eval(),
             Bsdf::Phong(b) => b.eval(wo, wi),
             Bsdf::Pbr(b) => b.eval(wo, wi),
+            Bsdf::Dielectric(b) => b.eval(wo, wi),
         }
     }
 
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if !both_above(wo, wi) {
+        if !both_above(wo, wi) && !self.transmits() {
             return 0.0;
         }
         match self {
             Bsdf::Lambert(b) => b.pdf(wi),
             Bsdf::Phong(b) => b.pdf(wo, wi),
             Bsdf::Pbr(b) => b.pdf(wo, wi),
+            Bsdf::Dielectric(b) => b.pdf(wo, wi),
+        }
+    }
+
+    /// Whether wi may lie below the surface (glass).
+    pub fn transmits(&self) -> bool {
+        matches!(self, Bsdf::Dielectric(_))
+    }
+
+    /// Whether sampling only gives delta directions (light sampling is then pointless).
+    pub fn is_specular(&self) -> bool {
+        match self {
+            Bsdf::Dielectric(d) => d.is_smooth(),
+            _ => false,
         }
     }
 
     /// `u_lobe` picks a lobe, `u` places the direction within it.
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
-        if wo.z <= 0.0 {
+        if wo.z <= 0.0 && !self.transmits() {
             return None;
         }
         let wi = match self {
             Bsdf::Lambert(b) => b.sample(u),
             Bsdf::Phong(b) => b.sample(wo, u_lobe, u),
             Bsdf::Pbr(b) => b.sample(wo, u_lobe, u),
+            // The glass lobes carry their own f and pdf (deltas cannot be re-evaluated).
+            Bsdf::Dielectric(b) => {
+                let l = b.sample(wo, u_lobe, u)?;
+                return Some(BsdfSample { wi: l.wi, f: l.f, pdf: l.pdf, specular: l.specular });
+            }
         }?;
         // Re-evaluating instead of carrying values out of the lobe samplers makes the
         // sample agree exactly with eval/pdf, mixture terms included.
         let (f, pdf) = (self.eval(wo, wi), self.pdf(wo, wi));
-        (pdf > 0.0 && pdf.is_finite() && f.is_finite()).then_some(BsdfSample { wi, f, pdf })
+        (pdf > 0.0 && pdf.is_finite() && f.is_finite()).then_some(BsdfSample { wi, f, pdf, specular: false })
     }
 
     /// Uniform hemisphere sampling, for the seed's naive estimator.
@@ -93,6 +122,7 @@ impl Bsdf {
             wi,
             f,
             pdf: uniform_hemisphere_pdf(),
+            specular: false,
         })
     }
 
@@ -102,6 +132,7 @@ impl Bsdf {
             Bsdf::Lambert(b) => b.is_black(),
             Bsdf::Phong(b) => b.is_black(),
             Bsdf::Pbr(b) => b.is_black(),
+            Bsdf::Dielectric(b) => b.is_black(),
         }
     }
 }

@@ -1,0 +1,77 @@
+//! Every bundled scene reports the effects it calls for, and its gated render agrees with a
+//! render by the kernel with every effect compiled in, per pixel, within error bars.
+use super::*;
+use crate::tracer::effects::KernelBits;
+use crate::tracer::integrator::tests::settings;
+use crate::tracer::{Estimator, PixelSums, Roulette, render_tile_kernel};
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+
+fn scene_path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../scenes/{name}.gltf"))
+}
+
+const BUNDLED: [&str; 9] =
+    ["absorption", "alpha-mask", "cornell-box", "depth-of-field", "furnace", "glass", "glossy", "phong", "punctual"];
+
+#[test]
+fn each_effect_scene_reports_its_effect_and_the_matte_scenes_do_not() {
+    let effects = |name| parse(&std::fs::read(scene_path(name)).unwrap(), None).unwrap().effects();
+    for (scene, effect) in [
+        ("glass", "glass"),
+        ("absorption", "absorption"),
+        ("absorption", "glass"),
+        ("alpha-mask", "alpha_mask"),
+        ("alpha-mask", "textures"),
+        ("depth-of-field", "depth_of_field"),
+        ("punctual", "spot_lights"),
+        ("glossy", "ggx"),
+        ("phong", "phong"),
+    ] {
+        assert!(effects(scene).contains(&effect.to_string()), "{scene}: {:?}", effects(scene));
+    }
+    assert_eq!(effects("cornell-box"), ["area_lights", "lambert"]);
+    assert!(!effects("glass").contains(&"absorption".to_string()), "clear glass does not absorb");
+}
+
+#[test]
+fn the_cornell_box_runs_the_matte_kernel() {
+    let scene = load_path(&scene_path("cornell-box")).unwrap();
+    assert_eq!(scene.effects_for(scene.camera(None).unwrap(), glam::Vec3::ZERO).kernel(), KernelBits::MATTE);
+}
+
+/// Per-channel mean and variance of the mean of one pixel.
+fn mean_var(p: &PixelSums, c: usize) -> (f64, f64) {
+    let n = p.count as f64;
+    let m = p.sum[c] / n;
+    (m, (p.sum_sq[c] / n - m * m).max(0.0) / (n - 1.0))
+}
+
+#[test]
+fn gated_and_all_effects_renders_agree_within_error_bars() {
+    let never = AtomicBool::new(false);
+    for name in BUNDLED {
+        let scene = load_path(&scene_path(name)).unwrap();
+        let s = settings(Estimator::Mis, Roulette::default(), 24, glam::Vec3::ZERO);
+        let render = |k| render_tile_kernel(&scene, &s, s.full_frame(), 0..64, &never, k).unwrap().unwrap();
+        let (gated, all) = (render(None), render(Some(KernelBits::ALL)));
+        let (mut outliers, mut n) = (0, 0);
+        for (a, b) in gated.pixels.iter().zip(&all.pixels) {
+            for c in 0..3 {
+                let ((ma, va), (mb, vb)) = (mean_var(a, c), mean_var(b, c));
+                n += 1;
+                // Both exactly equal (e.g. background pixels) or within 4.5σ of their difference.
+                if (ma - mb).abs() > 4.5 * (va + vb).sqrt() + 1e-9 * ma.abs() {
+                    outliers += 1;
+                }
+            }
+        }
+        // At 4.5σ a normal difference is out 7 times in a million; allow for heavy tails (a
+        // firefly in one render and none in the other) but not for a systematic difference.
+        assert!(outliers <= n / 200, "{name}: {outliers} of {n} pixel channels differ beyond 4.5σ");
+        let (mg, ma) = (crate::tracer::render::frame_mean(&gated.pixels), crate::tracer::render::frame_mean(&all.pixels));
+        for c in 0..3 {
+            assert!((mg[c] - ma[c]).abs() <= 0.05 * ma[c].max(1e-3), "{name}: frame means {mg:?} vs {ma:?}");
+        }
+    }
+}
