@@ -2,16 +2,17 @@
 //! `tessera render cornell-box` works from any directory.
 use std::path::Path;
 
+/// By name, in alphabetical order.
 pub const SCENES: &[(&str, &[u8])] = &[
+    ("absorption", include_bytes!("../../scenes/absorption.gltf")),
+    ("alpha-mask", include_bytes!("../../scenes/alpha-mask.gltf")),
     ("cornell-box", include_bytes!("../../scenes/cornell-box.gltf")),
+    ("depth-of-field", include_bytes!("../../scenes/depth-of-field.gltf")),
     ("furnace", include_bytes!("../../scenes/furnace.gltf")),
+    ("glass", include_bytes!("../../scenes/glass.gltf")),
     ("glossy", include_bytes!("../../scenes/glossy.gltf")),
     ("phong", include_bytes!("../../scenes/phong.gltf")),
     ("punctual", include_bytes!("../../scenes/punctual.gltf")),
-    ("glass", include_bytes!("../../scenes/glass.gltf")),
-    ("absorption", include_bytes!("../../scenes/absorption.gltf")),
-    ("depth-of-field", include_bytes!("../../scenes/depth-of-field.gltf")),
-    ("alpha-mask", include_bytes!("../../scenes/alpha-mask.gltf")),
 ];
 
 pub fn get(name: &str) -> Option<&'static [u8]> {

@@ -59,5 +59,5 @@ async fn every_bundled_scene_renders_with_no_dropped_samples() {
         assert_eq!(job.dropped_samples, 0, "{name}");
         assert!(job.max_sample_weight.is_finite() && job.max_sample_weight > 0.0, "{name}: {}", job.max_sample_weight);
     }
-    assert_eq!(report.len(), 5 * 4);
+    assert_eq!(report.len(), crate::bundled::names().len() * 4);
 }

@@ -10,7 +10,8 @@ use std::path::Path;
 /// `"TESSERA_materials_phong": {"kd": [r, g, b], "ks": [r, g, b], "n": exponent}` with kd + ks ≤ 1.
 pub const PHONG_EXTENSION: &str = "TESSERA_materials_phong";
 
-/// Largest texture accepted, in pixels (a guard against decompression bombs).
+/// Most texture pixels a scene may decode, all images together (a guard against decompression
+/// bombs: a few kilobytes of PNG can declare gigapixels; 2²⁶ pixels are 1 GiB as f32 RGBA).
 const MAX_TEXTURE_PIXELS: u64 = 1 << 26;
 
 pub fn default_material() -> Material {
@@ -130,11 +131,12 @@ fn phong(v: &serde_json::Value) -> Result<Phong, String> {
 pub fn load_textures(doc: &gltf::Document, base: Option<&Path>, buffers: &[Vec<u8>]) -> Result<Vec<Texture>, SceneError> {
     let mut images: Vec<Option<(u32, u32, Vec<Vec4>)>> = vec![None; doc.images().len()];
     let mut out = Vec::new();
+    let mut budget = MAX_TEXTURE_PIXELS;
     for tex in doc.textures() {
         let img = tex.source();
         let at = |what: String| SceneError::new(format!("texture {} (image {}): {what}", tex.index(), img.index()));
         if images[img.index()].is_none() {
-            images[img.index()] = Some(decode_image(&img, base, buffers).map_err(at)?);
+            images[img.index()] = Some(decode_image(&img, base, buffers, &mut budget).map_err(at)?);
         }
         let (width, height, texels) = images[img.index()].clone().expect("decoded above");
         let sampler = tex.sampler();
@@ -151,7 +153,7 @@ fn wrap(w: gltf::texture::WrappingMode) -> Wrap {
     }
 }
 
-fn decode_image(img: &gltf::Image, base: Option<&Path>, buffers: &[Vec<u8>]) -> Result<(u32, u32, Vec<Vec4>), String> {
+fn decode_image(img: &gltf::Image, base: Option<&Path>, buffers: &[Vec<u8>], budget: &mut u64) -> Result<(u32, u32, Vec<Vec4>), String> {
     let encoded = match img.source() {
         gltf::image::Source::View { view, .. } => {
             let buf = buffers.get(view.buffer().index()).ok_or("buffer view refers to a missing buffer")?;
@@ -164,9 +166,13 @@ fn decode_image(img: &gltf::Image, base: Option<&Path>, buffers: &[Vec<u8>]) -> 
         .with_guessed_format()
         .map_err(|e| format!("cannot read image: {e}"))?;
     let (w, h) = reader.into_dimensions().map_err(|e| format!("not a PNG or JPEG image: {e}"))?;
-    if w as u64 * h as u64 > MAX_TEXTURE_PIXELS || w == 0 || h == 0 {
-        return Err(format!("image is {w}×{h}; at most {MAX_TEXTURE_PIXELS} pixels are accepted"));
+    if w == 0 || h == 0 {
+        return Err(format!("image is {w}×{h}"));
     }
+    if w as u64 * h as u64 > *budget {
+        return Err(format!("image is {w}×{h}; a scene's textures may hold at most {MAX_TEXTURE_PIXELS} pixels in all ({} left)", *budget));
+    }
+    *budget -= w as u64 * h as u64;
     let decoded = image::load_from_memory(&encoded).map_err(|e| format!("cannot decode image: {e}"))?;
     let rgba = decoded.to_rgba32f();
     let texels = rgba
