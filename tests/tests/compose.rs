@@ -132,7 +132,10 @@ fn compose_killed_and_cut_off_workers_change_nothing() {
         // Longer than the lease: the coordinator must give both units to someone else.
         tokio::time::sleep(Duration::from_secs(lease_s as u64 + 3)).await;
         let before = find(&farm.workers().await, &cut.id).clone();
-        assert!(before.failures >= 1 && before.current.is_none(), "the cut-off worker's lease expired: {before:?}");
+        // Its unit either expired on the coordinator (a failure) or, on a loaded machine, was
+        // uploaded in the instant between the snapshot above and the disconnect.
+        let expired_or_landed = before.failures >= 1 || before.units_done > cut.units_done;
+        assert!(expired_or_landed && before.current.is_none(), "the cut-off worker's lease expired: {before:?} (was {cut:?})");
         assert!(before.last_seen_ms_ago >= 1000 * lease_s as u64, "{before:?}");
         farm.docker(&["network", "connect", &net, &cut_container]);
         // Back on the network, the same worker asks for work again (a dead connection times out within 6 s, retries back off ≤ 5 s).
