@@ -64,23 +64,7 @@ pub fn png_declaring(width: u32, height: u32) -> Vec<u8> {
     png
 }
 
-/// Wraps a JSON document and a binary chunk into a `.glb`.
-pub fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
-    let (mut j, mut b) = (json.as_bytes().to_vec(), bin.to_vec());
-    j.resize(j.len().next_multiple_of(4), b' ');
-    b.resize(b.len().next_multiple_of(4), 0);
-    let mut out = Vec::new();
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&((28 + j.len() + b.len()) as u32).to_le_bytes());
-    out.extend_from_slice(&(j.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&j);
-    out.extend_from_slice(&(b.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&b);
-    out
-}
+pub use tessera_worker::scene::pack_glb as glb;
 
 pub fn patched(mut bytes: Vec<u8>, at: usize, with: &[u8]) -> Vec<u8> {
     bytes[at..at + with.len()].copy_from_slice(with);

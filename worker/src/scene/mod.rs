@@ -135,3 +135,22 @@ mod tests_fuzz;
 mod tests_hostile;
 #[cfg(test)]
 mod tests_effects;
+
+/// Packs a glTF JSON document and its binary buffer into a `.glb` container (glTF 2.0 §4.4:
+/// 12-byte header, a JSON chunk padded with spaces, a BIN chunk padded with zeros).
+pub fn pack_glb(json: &str, bin: &[u8]) -> Vec<u8> {
+    let (mut j, mut b) = (json.as_bytes().to_vec(), bin.to_vec());
+    j.resize(j.len().next_multiple_of(4), b' ');
+    b.resize(b.len().next_multiple_of(4), 0);
+    let mut out = Vec::with_capacity(28 + j.len() + b.len());
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&((28 + j.len() + b.len()) as u32).to_le_bytes());
+    out.extend_from_slice(&(j.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&j);
+    out.extend_from_slice(&(b.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&b);
+    out
+}

@@ -87,21 +87,8 @@ pub(super) fn to_glb(json: &str) -> Vec<u8> {
     let payload_at = start + json[start..].find(',').expect("comma") + 1;
     let payload_end = payload_at + json[payload_at..].find('"').expect("closing quote");
     let bin = base64::engine::general_purpose::STANDARD.decode(&json[payload_at..payload_end]).expect("base64");
-    let mut j = format!("{}{}", &json[..start].trim_end_matches(','), &json[payload_end + 1..]).into_bytes();
-    let mut b = bin;
-    j.resize(j.len().next_multiple_of(4), b' ');
-    b.resize(b.len().next_multiple_of(4), 0);
-    let mut out = Vec::new();
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&((28 + j.len() + b.len()) as u32).to_le_bytes());
-    out.extend_from_slice(&(j.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&j);
-    out.extend_from_slice(&(b.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&b);
-    out
+    let json = format!("{}{}", &json[..start].trim_end_matches(','), &json[payload_end + 1..]);
+    super::pack_glb(&json, &bin)
 }
 
 fn seeds() -> Vec<(&'static str, Vec<u8>)> {
