@@ -73,8 +73,8 @@ fn job(scene: &str, size: u32, spp: u32, batch: u32) -> JobRequest {
     JobRequest { scene: scene.into(), width: size, height: size, spp: Some(spp), tile_size: Some(64), batch_spp: Some(batch), ..JobRequest::default() }
 }
 
-fn overhead(scene_name: &str, size: u32, spp: u32, repeats: u32, batch: u32) -> anyhow::Result<()> {
-    let scene = bundled::load(scene_name)?;
+/// The settings both benchmarks render with: a square frame, `mis` + Sobol, seed 0.
+fn bench_settings(size: u32) -> anyhow::Result<tessera_worker::tracer::RenderSettings> {
     let params = tessera_proto::RenderParams {
         width: size,
         height: size,
@@ -85,7 +85,12 @@ fn overhead(scene_name: &str, size: u32, spp: u32, repeats: u32, batch: u32) -> 
         max_depth: 1024,
         background: [0.0; 3],
     };
-    let settings = render_settings(&params).map_err(anyhow::Error::msg)?;
+    render_settings(&params).map_err(anyhow::Error::msg)
+}
+
+fn overhead(scene_name: &str, size: u32, spp: u32, repeats: u32, batch: u32) -> anyhow::Result<()> {
+    let scene = bundled::load(scene_name)?;
+    let settings = bench_settings(size)?;
     let rt = tokio::runtime::Runtime::new()?;
     let (mut alone, mut farm) = (f64::INFINITY, f64::INFINITY);
     for r in 0..repeats {
@@ -129,17 +134,7 @@ fn overhead(scene_name: &str, size: u32, spp: u32, repeats: u32, batch: u32) -> 
 
 fn effects(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Result<()> {
     let scene = bundled::load(scene_name)?;
-    let params = tessera_proto::RenderParams {
-        width: size,
-        height: size,
-        seed: 0,
-        estimator: "mis".into(),
-        sampler: "sobol".into(),
-        camera: None,
-        max_depth: 1024,
-        background: [0.0; 3],
-    };
-    let settings = render_settings(&params).map_err(anyhow::Error::msg)?;
+    let settings = bench_settings(size)?;
     let gated_bits = scene.effects_for(scene.camera(None).map_err(anyhow::Error::msg)?, settings.background).kernel();
     let kernels = [("gated", None), ("matte only", Some(KernelBits::MATTE)), ("all effects on", Some(KernelBits::ALL))];
     let never = std::sync::atomic::AtomicBool::new(false);
