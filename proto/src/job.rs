@@ -34,6 +34,30 @@ pub struct JobRequest {
     pub background: Option<[f32; 3]>,
     /// Higher runs first; equal priorities share workers fairly (default 0).
     pub priority: Option<i32>,
+    /// Frames of the scene's animation to render (default: the single frame 0).
+    pub frames: Option<FrameRange>,
+    /// The glTF animation to play, by name or index (default: the first one, if any).
+    pub animation: Option<String>,
+}
+
+/// An inclusive range of animation frames: `start`, `start + step`, … up to `end`. Frame n
+/// shows the scene at time n / fps seconds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FrameRange {
+    pub start: u32,
+    pub end: u32,
+    /// Default 1.
+    pub step: Option<u32>,
+    /// Frames per second of animation time (default 24).
+    pub fps: Option<f64>,
+}
+
+/// Frames per second when a job does not say.
+pub const DEFAULT_FPS: f64 = 24.0;
+
+fn default_fps() -> f64 {
+    DEFAULT_FPS
 }
 
 /// The render settings a worker needs, fixed when the job is accepted.
@@ -47,6 +71,12 @@ pub struct RenderParams {
     pub camera: Option<String>,
     pub max_depth: u32,
     pub background: [f32; 3],
+    /// The glTF animation, by name or index; None plays the first one (if the scene has any).
+    #[serde(default)]
+    pub animation: Option<String>,
+    /// Frame n of a lease is the scene at time n / fps seconds.
+    #[serde(default = "default_fps")]
+    pub fps: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]

@@ -33,7 +33,7 @@ pub struct LeaseRequest {
     pub worker_id: String,
 }
 
-/// One unit of work: a tile of a job over a range of sample indices.
+/// One unit of work: a tile of one frame of a job over a range of sample indices.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct Lease {
     pub lease_id: String,
@@ -41,6 +41,9 @@ pub struct Lease {
     /// sha256 of the scene bytes; fetch with `GET /v1/scenes/{scene_id}/data` if not cached.
     pub scene_id: String,
     pub params: RenderParams,
+    /// The animation frame (0 for a still); render the scene at time frame / params.fps.
+    #[serde(default)]
+    pub frame: u32,
     pub tile: TileRect,
     /// Sample indices [start, end) of every pixel in the tile.
     pub samples: [u32; 2],

@@ -84,6 +84,8 @@ fn bench_settings(size: u32) -> anyhow::Result<tessera_worker::tracer::RenderSet
         camera: None,
         max_depth: 1024,
         background: [0.0; 3],
+        animation: None,
+        fps: tessera_proto::job::DEFAULT_FPS,
     };
     render_settings(&params).map_err(anyhow::Error::msg)
 }

@@ -63,6 +63,8 @@ impl JobArgs {
             max_depth: Some(self.max_depth),
             background: self.background,
             priority: Some(self.priority),
+            frames: None,
+            animation: None,
         }
     }
 }

@@ -69,6 +69,8 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
         camera: req.camera.clone(),
         max_depth,
         background,
+        animation: req.animation.clone(),
+        fps: tessera_proto::job::DEFAULT_FPS,
     };
     Ok(JobConfig {
         id,

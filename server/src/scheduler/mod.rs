@@ -177,6 +177,7 @@ impl Scheduler {
             job_id: job.cfg.id.clone(),
             scene_id: job.cfg.scene_id.clone(),
             params: job.cfg.params.clone(),
+            frame: 0,
             tile: job.tiles[tile].rect,
             samples: job.samples_of(batch),
             deadline_ms: self.lease_timeout_ms,

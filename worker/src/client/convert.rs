@@ -59,6 +59,8 @@ mod tests {
             camera: Some("Camera".into()),
             max_depth: 12,
             background: [0.5, 0.25, 0.0],
+            animation: None,
+            fps: tessera_proto::job::DEFAULT_FPS,
         }
     }
 

@@ -220,6 +220,8 @@ fn params(width: u32, height: u32) -> RenderParams {
         camera: None,
         max_depth: 64,
         background: [0.0; 3],
+        animation: None,
+        fps: tessera_proto::job::DEFAULT_FPS,
     }
 }
 
@@ -229,6 +231,7 @@ fn unit(id: &str, params: RenderParams, tile: TileRect, samples: [u32; 2]) -> St
         job_id: "job-1".into(),
         scene_id: SCENE_ID.into(),
         params,
+        frame: 0,
         tile,
         samples,
         deadline_ms: 30_000,
