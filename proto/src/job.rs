@@ -136,6 +136,28 @@ pub struct Job {
     /// Samples each worker rendered into the merged image so far (counted as units merge).
     #[serde(default)]
     pub contributions: Vec<WorkerContribution>,
+    /// Per animation frame, in frame order (one entry for a still).
+    #[serde(default)]
+    pub frames: Vec<FrameStatus>,
+}
+
+/// One frame of a job: its progress and what preparing its scene cost the workers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct FrameStatus {
+    pub frame: u32,
+    /// Animation time of the frame in seconds (frame / fps).
+    pub time_s: f64,
+    /// Mean samples per pixel merged in this frame.
+    pub samples_done: f64,
+    /// Estimated relMSE of this frame; null before any tile has two samples per pixel.
+    pub noise: Option<f64>,
+    /// True once every tile of the frame is complete (its EXR is final when the job is done).
+    pub done: bool,
+    /// Scene preparations workers reported for units of this frame: full BVH builds, refits of
+    /// another frame's BVH, and their total time in milliseconds.
+    pub builds: u32,
+    pub refits: u32,
+    pub prepare_ms: f64,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]

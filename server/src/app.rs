@@ -1,5 +1,5 @@
 //! The coordinator's HTTP application: `app(state) -> Router` and `run(listener, state, shutdown)`.
-use crate::routes::{events, health, jobs, leases, scenes};
+use crate::routes::{events, health, images, jobs, leases, scenes};
 use crate::error::AppError;
 use crate::state::AppState;
 use axum::http::{StatusCode, header};
@@ -29,8 +29,11 @@ pub fn app(state: AppState) -> Router {
         .routes(routes!(scenes::data))
         .routes(routes!(jobs::create, jobs::list))
         .routes(routes!(jobs::get, jobs::cancel))
-        .routes(routes!(jobs::image_exr))
-        .routes(routes!(jobs::preview_png))
+        .routes(routes!(images::image_exr))
+        .routes(routes!(images::preview_png))
+        .routes(routes!(images::frame_exr))
+        .routes(routes!(images::frame_png))
+        .routes(routes!(images::frames_zip))
         .routes(routes!(events::events))
         .routes(routes!(leases::register, leases::list))
         .routes(routes!(leases::lease))

@@ -9,7 +9,7 @@
 //! - [`scheduler`]: the clock-free state machine of jobs, units, leases and workers.
 //! - [`store`], [`persist`]: durable job state (redb + checkpoint files) and resuming from it.
 //! - [`dashboard`]: the web dashboard at `/` (static files compiled in).
-//! - [`app`], [`routes`], [`state`], [`error`], [`scenes`]: the axum coordinator —
+//! - [`app`], [`routes`], [`state`], [`status`], [`error`], [`scenes`]: the axum coordinator —
 //!   `app(state) -> Router`, handlers grouped by resource, problem+json errors, the scene store.
 pub mod app;
 pub mod auth;
@@ -25,4 +25,5 @@ pub mod routes;
 pub mod scenes;
 pub mod scheduler;
 pub mod state;
+pub mod status;
 pub mod store;

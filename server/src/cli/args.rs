@@ -1,6 +1,7 @@
 //! Job settings shared by `render` and `submit`.
 use clap::Args;
-use tessera_proto::JobRequest;
+use std::path::{Path, PathBuf};
+use tessera_proto::{FrameRange, JobRequest};
 
 #[derive(Args, Clone, Debug)]
 pub struct JobArgs {
@@ -43,6 +44,16 @@ pub struct JobArgs {
     /// Higher runs first; equal priorities share workers.
     #[arg(long, default_value_t = 0)]
     pub priority: i32,
+    /// Render frames of the scene's animation: A..B (inclusive), A..B:STEP, or one frame N.
+    /// Output files get the frame number: out.exr → out_0003.exr (or put #### in the name).
+    #[arg(long, value_parser = parse_frames)]
+    pub frames: Option<(u32, u32, u32)>,
+    /// Frames per second of animation time (frame n shows time n / fps).
+    #[arg(long, default_value_t = tessera_proto::job::DEFAULT_FPS)]
+    pub fps: f64,
+    /// The glTF animation to play, by name or index (default: the first).
+    #[arg(long)]
+    pub animation: Option<String>,
 }
 
 impl JobArgs {
@@ -63,8 +74,8 @@ impl JobArgs {
             max_depth: Some(self.max_depth),
             background: self.background,
             priority: Some(self.priority),
-            frames: None,
-            animation: None,
+            frames: self.frames.map(|(start, end, step)| FrameRange { start, end, step: Some(step), fps: Some(self.fps) }),
+            animation: self.animation.clone(),
         }
     }
 }
@@ -75,5 +86,61 @@ fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
         [r, g, b] if v.iter().all(|x| x.is_finite() && *x >= 0.0) => Ok([r, g, b]),
         [x] if x.is_finite() && x >= 0.0 => Ok([x; 3]),
         _ => Err(format!("{s:?}: expected R,G,B (three finite numbers ≥ 0)")),
+    }
+}
+
+/// `A..B`, `A..B:STEP` or `N` → (start, end, step).
+fn parse_frames(s: &str) -> Result<(u32, u32, u32), String> {
+    let num = |x: &str| x.trim().parse::<u32>().map_err(|e| format!("{s:?}: {x:?} is not a frame number ({e})"));
+    let (range, step) = match s.split_once(':') {
+        Some((r, st)) => (r, num(st)?),
+        None => (s, 1),
+    };
+    let (a, b) = match range.split_once("..") {
+        Some((a, b)) => (num(a)?, num(b.trim_start_matches('='))?),
+        None => (num(range)?, num(range)?),
+    };
+    if a > b || step == 0 {
+        return Err(format!("{s:?}: expected A..B with A ≤ B (inclusive), optionally :STEP with STEP ≥ 1"));
+    }
+    Ok((a, b, step))
+}
+
+/// The file of frame `n` for an output name: a run of `#` in the name becomes the zero-padded
+/// frame number (`shot_####.exr` → `shot_0003.exr`); otherwise `_####` goes before the extension.
+pub fn frame_path(out: &Path, n: u32) -> PathBuf {
+    let name = out.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+    let file = match name.find('#') {
+        Some(i) => {
+            let width = name[i..].chars().take_while(|&c| c == '#').count();
+            format!("{}{n:0width$}{}", &name[..i], &name[i + width..])
+        }
+        None => match name.rsplit_once('.') {
+            Some((stem, ext)) => format!("{stem}_{n:04}.{ext}"),
+            None => format!("{name}_{n:04}"),
+        },
+    };
+    out.with_file_name(file)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_ranges_parse() {
+        assert_eq!(parse_frames("0..7"), Ok((0, 7, 1)));
+        assert_eq!(parse_frames("3..=9:2"), Ok((3, 9, 2)));
+        assert_eq!(parse_frames("5"), Ok((5, 5, 1)));
+        assert!(parse_frames("7..3").is_err());
+        assert!(parse_frames("0..4:0").is_err());
+        assert!(parse_frames("a..b").is_err());
+    }
+
+    #[test]
+    fn frame_paths_number_the_files() {
+        assert_eq!(frame_path(Path::new("out/shot.exr"), 3), PathBuf::from("out/shot_0003.exr"));
+        assert_eq!(frame_path(Path::new("shot_##.exr"), 7), PathBuf::from("shot_07.exr"));
+        assert_eq!(frame_path(Path::new("shot"), 12), PathBuf::from("shot_0012"));
     }
 }

@@ -1,8 +1,7 @@
 //! `tessera render`: a coordinator and a worker in one process, on a loopback port, through the
 //! same protocol as a farm — so the default path is the distributed path.
 use super::args::JobArgs;
-use super::submit::{download, follow, scene_ref};
-use anyhow::Context;
+use super::submit::{download, download_each, follow, scene_ref};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -11,7 +10,7 @@ use tessera_server::client::Coordinator;
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// A bundled scene name (cornell-box, furnace, glossy, phong, punctual) or a .gltf/.glb file.
+    /// A bundled scene name (e.g. cornell-box; an unknown name lists them all) or a .gltf/.glb file.
     pub scene: String,
     /// Samples per pixel.
     #[arg(long, default_value_t = 64)]
@@ -24,7 +23,7 @@ pub struct RenderArgs {
     /// Output OpenEXR file.
     #[arg(short, long, default_value = "out.exr")]
     pub output: PathBuf,
-    /// Also write an sRGB PNG preview (clamped, exposure 1) here.
+    /// Also write an sRGB PNG preview (clamped, exposure 1) here (numbered like the EXR for frames).
     #[arg(long)]
     pub preview: Option<PathBuf>,
 }
@@ -45,16 +44,15 @@ async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> 
     let scene = scene_ref(&c, &a.scene).await?;
     let job = c.submit(&a.job.request(scene, Some(a.spp))).await?;
     let job = follow(&c, &job.id).await?;
-    download(&c, &job, &a.output).await?;
+    let files = download(&c, &job, &a.output).await?;
     if let Some(p) = &a.preview {
-        let png = c.bytes(&format!("/v1/jobs/{}/preview.png", job.id)).await?;
-        std::fs::write(p, png).with_context(|| format!("writing {}", p.display()))?;
+        download_each(&c, &job, p, "preview.png").await?;
     }
     let secs = start.elapsed().as_secs_f64();
-    let samples = job.progress.samples_done * a.job.width as f64 * a.job.height as f64;
+    let samples = job.progress.samples_done * (a.job.width as f64 * a.job.height as f64) * job.frames.len().max(1) as f64;
     println!(
         "{}: {}x{} at {:.0} spp in {:.2} s ({:.0} samples/s); estimated relMSE {:.3e}; dropped {} non-finite samples; max sample weight {:.3}; effects: {}",
-        a.output.display(),
+        files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>().join(", "),
         a.job.width,
         a.job.height,
         job.progress.samples_done,

@@ -22,6 +22,10 @@ pub struct ServeArgs {
     /// more units of that job.
     #[arg(long, default_value_t = 3)]
     pub max_failures: u32,
+    /// Give each worker units of the animation frame it rendered last, so it reuses that frame's
+    /// BVH (off: units go out frame by frame in plain order, as a baseline).
+    #[arg(long, env = "TESSERA_FRAME_AFFINITY", default_value_t = true, action = clap::ArgAction::Set)]
+    pub frame_affinity: bool,
     /// Largest accepted scene upload, in MiB.
     #[arg(long, default_value_t = 256)]
     pub max_scene_mib: usize,
@@ -46,6 +50,7 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
     let mut config = Config::new(a.data.clone());
     config.checkpoint_ms = (a.checkpoint_interval > 0.0).then_some((a.checkpoint_interval * 1000.0) as u64);
     config.max_failures = a.max_failures;
+    config.frame_affinity = a.frame_affinity;
     config.lease_timeout_ms = (a.lease_timeout * 1000.0) as u64;
     config.max_scene_bytes = a.max_scene_mib << 20;
     config.max_triangles = a.max_triangles;

@@ -1,5 +1,5 @@
 //! `tessera submit`: send a job to a coordinator; `--wait` to follow it and download the image.
-use super::args::JobArgs;
+use super::args::{JobArgs, frame_path};
 use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -74,7 +74,21 @@ pub async fn follow(c: &Coordinator, id: &str) -> anyhow::Result<Job> {
     }
 }
 
-pub async fn download(c: &Coordinator, job: &Job, out: &Path) -> anyhow::Result<()> {
-    let bytes = c.bytes(&format!("/v1/jobs/{}/image.exr", job.id)).await?;
-    std::fs::write(out, bytes).with_context(|| format!("writing {}", out.display()))
+/// Writes the job's EXR to `out`; for a job with a frame range, one file per frame named by
+/// [`frame_path`]. Returns the files written.
+pub async fn download(c: &Coordinator, job: &Job, out: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    download_each(c, job, out, "image.exr").await
+}
+
+/// As [`download`], for any per-frame image (`image.exr`, `preview.png`).
+pub async fn download_each(c: &Coordinator, job: &Job, out: &Path, what: &str) -> anyhow::Result<Vec<PathBuf>> {
+    let targets: Vec<(String, PathBuf)> = match job.request.frames {
+        None => vec![(format!("/v1/jobs/{}/{what}", job.id), out.to_path_buf())],
+        Some(_) => job.frames.iter().map(|f| (format!("/v1/jobs/{}/frames/{}/{what}", job.id, f.frame), frame_path(out, f.frame))).collect(),
+    };
+    for (url, path) in &targets {
+        let bytes = c.bytes(url).await?;
+        std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(targets.into_iter().map(|(_, p)| p).collect())
 }

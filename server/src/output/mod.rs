@@ -37,9 +37,11 @@
 //! clamped, NaN/±Inf shown black.
 
 mod exr;
+mod job_image;
 mod png;
 
 pub use self::exr::{decode_exr, encode_exr, write_exr};
+pub use self::job_image::JobImage;
 pub use self::png::encode_png_preview;
 
 use anyhow::{Result, ensure};

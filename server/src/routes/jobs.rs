@@ -1,7 +1,7 @@
-//! `/v1/jobs`: submit, list, read, cancel, and the images of a job.
+//! `/v1/jobs`: submit, list, read, cancel (the images of a job are in `images.rs`).
 use super::validate::job_config;
 use crate::error::{AppError, Json};
-use crate::state::{AppState, JobImage, job_status};
+use crate::state::{AppState, job_status};
 use axum::extract::{Path, Query, State};
 use axum::http::{StatusCode, header};
 use axum::response::IntoResponse;
@@ -80,35 +80,3 @@ pub async fn cancel(State(st): State<AppState>, Path(id): Path<String>) -> Resul
     get(State(st), Path(id)).await
 }
 
-/// The job's OpenEXR image: final when done, else the current merge.
-#[utoipa::path(get, path = "/v1/jobs/{id}/image.exr", tag = "jobs", params(("id" = String, Path)),
-    responses((status = 200, content_type = "image/x-exr"), (status = 404, body = Problem)))]
-pub async fn image_exr(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
-    let done = st.scheduler.lock().expect("lock").job(&id).is_some_and(|j| j.state == tessera_proto::JobState::Done);
-    if done {
-        // The job may have finished a moment ago, its file not yet written: write it now.
-        let (st2, id2) = (st.clone(), id.clone());
-        tokio::task::spawn_blocking(move || st2.finalize(&id2)).await.map_err(AppError::internal)?;
-        if let Ok(bytes) = tokio::fs::read(st.image_path(&id)).await {
-            return Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes));
-        }
-    }
-    let snapshot = snapshot(&st, &id)?;
-    let bytes = tokio::task::spawn_blocking(move || snapshot.encode_exr()).await.map_err(AppError::internal)?.map_err(AppError::internal)?;
-    Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes))
-}
-
-fn snapshot(st: &AppState, id: &str) -> Result<JobImage, AppError> {
-    let s = st.scheduler.lock().expect("lock");
-    let job = s.job(id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
-    Ok(JobImage::of(job, st.now()))
-}
-
-/// An sRGB PNG preview of the current merge.
-#[utoipa::path(get, path = "/v1/jobs/{id}/preview.png", tag = "jobs", params(("id" = String, Path)),
-    responses((status = 200, content_type = "image/png"), (status = 404, body = Problem)))]
-pub async fn preview_png(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
-    let snapshot = snapshot(&st, &id)?;
-    let png = tokio::task::spawn_blocking(move || snapshot.encode_png()).await.map_err(AppError::internal)?;
-    Ok(([(header::CONTENT_TYPE, "image/png"), (header::CACHE_CONTROL, "no-store")], png))
-}

@@ -1,6 +1,6 @@
 //! The worker protocol: register, lease, heartbeat, result, release (see tessera_proto::lease).
 use crate::error::{AppError, Json};
-use crate::scheduler::{Accepted, ResultError};
+use crate::scheduler::{Accepted, PrepareKind, ResultError};
 use crate::state::AppState;
 use axum::body::Bytes;
 use axum::extract::{Path, Query, State};
@@ -119,7 +119,13 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, headers:
         }
     };
     let t0 = std::time::Instant::now();
-    let outcome = st.scheduler.lock().expect("lock").complete(&id, sums, st.now());
+    let outcome = {
+        let mut sched = st.scheduler.lock().expect("lock");
+        if let Some((kind, ms)) = prepare_report(&headers) {
+            sched.note_prepare(&id, kind, ms);
+        }
+        sched.complete(&id, sums, st.now())
+    };
     st.counters.merge_nanos.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
     st.0.settle().await;
     match outcome {
@@ -143,4 +149,18 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, headers:
             Err(AppError::new(StatusCode::UNPROCESSABLE_ENTITY, m))
         }
     }
+}
+
+/// How the worker prepared the unit's scene, from the optional `x-tessera-prepare` (cached |
+/// build | refit) and `x-tessera-prepare-ms` headers of a result. Absent or unreadable headers
+/// are ignored: they are a report, not part of the result.
+fn prepare_report(headers: &HeaderMap) -> Option<(PrepareKind, f64)> {
+    let kind = match headers.get("x-tessera-prepare")?.to_str().ok()? {
+        "cached" => PrepareKind::Cached,
+        "build" => PrepareKind::Build,
+        "refit" => PrepareKind::Refit,
+        _ => return None,
+    };
+    let ms = headers.get("x-tessera-prepare-ms").and_then(|v| v.to_str().ok()?.parse::<f64>().ok()).filter(|m| m.is_finite() && *m >= 0.0);
+    Some((kind, ms.unwrap_or(0.0)))
 }

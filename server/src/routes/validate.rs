@@ -2,7 +2,8 @@
 use crate::error::AppError;
 use crate::scenes::SceneMeta;
 use crate::scheduler::JobConfig;
-use tessera_proto::{JobRequest, RenderParams};
+use tessera_proto::job::DEFAULT_FPS;
+use tessera_proto::{FrameRange, JobRequest, RenderParams};
 use tessera_worker::tracer::Estimator;
 use tessera_worker::tracer::sampler::SamplerKind;
 
@@ -12,6 +13,10 @@ pub const MAX_PIXELS: u64 = 1 << 24;
 pub const MAX_SPP: u32 = 1 << 20;
 /// Cap on samples per pixel for jobs stopped only by noise or time.
 pub const OPEN_ENDED_SPP: u32 = 1 << 16;
+/// Pixels of all frames of a job together: the coordinator keeps every frame's sums until the
+/// job ends (4 GiB at this size); longer sequences are split into several jobs.
+pub const MAX_JOB_PIXELS: u64 = 1 << 26;
+pub const MAX_FPS: f64 = 1000.0;
 
 pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_ms: u64) -> Result<JobConfig, AppError> {
     let in_range = |field: &str, v: u32, lo: u32, hi: u32| {
@@ -41,6 +46,7 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
     let estimator: Estimator = req.estimator.as_deref().unwrap_or("mis").parse().map_err(|e: String| AppError::field("estimator", e))?;
     let sampler: SamplerKind =
         req.sampler.as_deref().unwrap_or("sobol").parse().map_err(|e: tessera_worker::tracer::sampler::UnknownSamplerKind| AppError::field("sampler", e.to_string()))?;
+    let (frames, fps) = frames(req.frames.as_ref(), width as u64 * height as u64)?;
     let tile_size = in_range("tile_size", req.tile_size.unwrap_or(64), 8, 1024)?;
     let batch_spp = in_range("batch_spp", req.batch_spp.unwrap_or(16), 1, 4096)?;
     let max_depth = in_range("max_depth", req.max_depth.unwrap_or(1024), 1, 65536)?;
@@ -70,7 +76,7 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
         max_depth,
         background,
         animation: req.animation.clone(),
-        fps: tessera_proto::job::DEFAULT_FPS,
+        fps,
     };
     Ok(JobConfig {
         id,
@@ -86,5 +92,30 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
         effects,
         request: req,
         created_unix_ms,
+        frames,
     })
+}
+
+/// The frame numbers of a `frames` range, and its fps.
+fn frames(range: Option<&FrameRange>, pixels: u64) -> Result<(Vec<u32>, f64), AppError> {
+    let Some(r) = range else { return Ok((vec![0], DEFAULT_FPS)) };
+    let step = r.step.unwrap_or(1);
+    if r.start > r.end {
+        return Err(AppError::field("frames", format!("frames.start ({}) must be ≤ frames.end ({})", r.start, r.end)));
+    }
+    if step == 0 {
+        return Err(AppError::field("frames", "frames.step must be ≥ 1"));
+    }
+    let fps = r.fps.unwrap_or(DEFAULT_FPS);
+    if !(fps.is_finite() && fps > 0.0 && fps <= MAX_FPS) {
+        return Err(AppError::field("frames", format!("frames.fps must be in (0, {MAX_FPS}] (got {fps})")));
+    }
+    let count = (r.end - r.start) as u64 / step as u64 + 1;
+    if count * pixels > MAX_JOB_PIXELS {
+        return Err(AppError::field(
+            "frames",
+            format!("{count} frames of {pixels} pixels exceed {MAX_JOB_PIXELS} pixels per job: split the range into several jobs"),
+        ));
+    }
+    Ok(((r.start..=r.end).step_by(step as usize).collect(), fps))
 }

@@ -5,6 +5,7 @@
 //! early arrivals, so its f64 sums — and the image — do not depend on who rendered what, when.
 //! A noise target is decided on that same order (after merging batch k, is the tile's relMSE at
 //! or below the target?), so it is deterministic too.
+use super::frames::FramePrepare;
 use super::tile::{NoiseStop, TileRun};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
@@ -35,6 +36,13 @@ pub struct JobConfig {
     pub effects: Vec<String>,
     pub request: JobRequest,
     pub created_unix_ms: u64,
+    /// Animation frames in render order (a still: `[0]`); unit tiles are numbered frame-major.
+    #[serde(default = "still")]
+    pub frames: Vec<u32>,
+}
+
+fn still() -> Vec<u32> {
+    vec![0]
 }
 
 /// Units of one job a worker failed (lease expired, malformed result).
@@ -56,7 +64,12 @@ pub struct JobRun {
     pub cfg: JobConfig,
     pub seq: u64,
     pub state: JobState,
+    /// Every frame's tiles, frame-major: tile `i` is tile `i % tiles_per_frame` of frame index
+    /// `i / tiles_per_frame`, so a unit (job, frame, tile, batch) is (job, i, batch).
     pub tiles: Vec<TileRun>,
+    pub tiles_per_frame: usize,
+    /// Scene preparation reported by workers, per frame index (kept in memory only).
+    pub prepare: Vec<FramePrepare>,
     /// Render time spent before this coordinator started (restored from a checkpoint).
     pub elapsed_before_ms: u64,
     pub started_ms: Option<u64>,
@@ -78,17 +91,21 @@ impl JobRun {
     pub fn new(cfg: JobConfig, seq: u64) -> JobRun {
         let (w, h, t) = (cfg.params.width, cfg.params.height, cfg.tile_size);
         let batches = cfg.spp.div_ceil(cfg.batch_spp);
-        let mut tiles = Vec::new();
+        let mut rects = Vec::new();
         for y0 in (0..h).step_by(t as usize) {
             for x0 in (0..w).step_by(t as usize) {
-                tiles.push(TileRun::new(TileRect { x0, y0, w: t.min(w - x0), h: t.min(h - y0) }, batches));
+                rects.push(TileRect { x0, y0, w: t.min(w - x0), h: t.min(h - y0) });
             }
         }
+        let frames = cfg.frames.len().max(1);
+        let tiles = (0..frames).flat_map(|_| rects.iter().map(|&r| TileRun::new(r, batches))).collect();
         JobRun {
             cfg,
             seq,
             state: JobState::Queued,
             tiles,
+            tiles_per_frame: rects.len(),
+            prepare: vec![FramePrepare::default(); frames],
             elapsed_before_ms: 0,
             started_ms: None,
             finished_ms: None,
@@ -105,14 +122,6 @@ impl JobRun {
     pub fn samples_of(&self, batch: u32) -> [u32; 2] {
         let b = self.cfg.batch_spp;
         [batch * b, ((batch + 1) * b).min(self.cfg.spp)]
-    }
-
-    /// The unit to hand out next: breadth-first over batches, so the preview refines evenly.
-    pub fn next_unit(&self) -> Option<(usize, u32)> {
-        if self.state.is_final() {
-            return None;
-        }
-        self.tiles.iter().enumerate().filter_map(|(i, t)| t.next_issuable().map(|b| (b, i))).min().map(|(b, i)| (i, b))
     }
 
     pub fn mark_issued(&mut self, tile: usize, batch: u32, now: u64) {
@@ -199,13 +208,14 @@ impl JobRun {
         }
     }
 
+    /// Pixels of one frame.
     pub fn pixel_count(&self) -> u64 {
         self.cfg.params.width as u64 * self.cfg.params.height as u64
     }
 
-    /// Mean samples per pixel merged.
+    /// Mean samples per pixel merged, over all frames.
     pub fn samples_done(&self) -> f64 {
-        self.tiles.iter().map(|t| t.merged_samples).sum::<u64>() as f64 / self.pixel_count() as f64
+        self.tiles.iter().map(|t| t.merged_samples).sum::<u64>() as f64 / (self.pixel_count() * self.frame_count() as u64) as f64
     }
 
     /// Non-finite samples dropped in the merged batches.
@@ -220,14 +230,7 @@ impl JobRun {
 
     /// Pixel-weighted mean of the tiles' relMSE over tiles with at least one merged batch.
     pub fn noise(&self) -> Option<f64> {
-        let (mut acc, mut px) = (0.0, 0.0);
-        for t in &self.tiles {
-            if let Some(r) = t.noise() {
-                acc += r * t.rect.pixel_count() as f64;
-                px += t.rect.pixel_count() as f64;
-            }
-        }
-        (px > 0.0).then(|| acc / px)
+        super::frames::weighted_noise(&self.tiles)
     }
 
     /// Render time: earlier coordinator lives plus this one's (downtime does not count).
@@ -244,11 +247,14 @@ impl JobRun {
         self.started_ms.is_some() && self.cfg.time_limit_ms.is_some_and(|l| self.elapsed_ms(now) >= l)
     }
 
-    /// The whole frame of merged sums, for output.
-    pub fn frame(&self) -> Vec<PixelSums> {
+    /// One frame's merged sums (by frame index), for output.
+    pub fn frame_sums(&self, index: usize) -> Vec<PixelSums> {
         let w = self.cfg.params.width as usize;
         let mut frame = vec![PixelSums::default(); self.pixel_count() as usize];
-        for t in &self.tiles {
+        for t in &self.tiles[self.frame_tiles(index)] {
+            if t.merged.is_empty() {
+                continue;
+            }
             for y in 0..t.rect.h as usize {
                 for x in 0..t.rect.w as usize {
                     frame[(t.rect.y0 as usize + y) * w + t.rect.x0 as usize + x] = t.merged[y * t.rect.w as usize + x];

@@ -15,16 +15,20 @@
 //! - Jobs of higher priority go first; equal priorities share workers (fewest leases in flight
 //!   first), then first come, first served.
 mod durable;
+mod frames;
 mod job;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod tests_durable;
 #[cfg(test)]
+mod tests_frames;
+#[cfg(test)]
 mod tests_numerics;
 mod tile;
 
 pub use durable::{JobCheckpoint, JobRecord, RestoredTile, TileCheckpoint, TileMark};
+pub use frames::{FramePrepare, PrepareKind};
 pub use job::{Failures, JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP, Renderer};
 pub use tile::TileRun;
 use std::collections::{BTreeMap, HashMap};
@@ -63,6 +67,8 @@ pub struct WorkerRec {
     pub units_done: u64,
     pub failures: u64,
     pub current: Option<String>,
+    /// The job (seq) and frame index of its last unit: its scene for that frame is built.
+    pub last_frame: Option<(u64, usize)>,
 }
 
 pub struct Scheduler {
@@ -76,6 +82,7 @@ pub struct Scheduler {
     lease_timeout_ms: u64,
     max_failures: u32,
     epoch: u64,
+    frame_affinity: bool,
     /// Jobs that ended inside `tick` (time limits), for the caller to finalize.
     finished: Vec<String>,
 }
@@ -100,6 +107,7 @@ impl Scheduler {
             lease_timeout_ms,
             max_failures: max_failures.max(1),
             epoch,
+            frame_affinity: true,
             finished: Vec::new(),
         }
     }
@@ -111,7 +119,7 @@ impl Scheduler {
     pub fn register_worker(&mut self, name: &str, threads: u32, now: u64) -> String {
         self.next_worker += 1;
         let id = format!("w{}-{}", self.epoch, self.next_worker);
-        let rec = WorkerRec { name: name.to_string(), threads, last_seen: now, units_done: 0, failures: 0, current: None };
+        let rec = WorkerRec { name: name.to_string(), threads, last_seen: now, units_done: 0, failures: 0, current: None, last_frame: None };
         self.workers.insert(id.clone(), rec);
         id
     }
@@ -150,6 +158,7 @@ impl Scheduler {
         self.tick(now);
         let w = self.workers.get_mut(worker).ok_or_else(|| format!("unknown worker {worker:?}"))?;
         w.last_seen = now;
+        let last_frame = w.last_frame;
         let mut in_flight: HashMap<u64, usize> = HashMap::new();
         for l in self.leases.values() {
             *in_flight.entry(l.job_seq).or_default() += 1;
@@ -158,12 +167,13 @@ impl Scheduler {
             .jobs
             .values()
             .filter(|j| !j.is_blocked(worker, self.max_failures))
-            .filter_map(|j| j.next_unit().map(|u| (j, u)))
+            .filter_map(|j| j.next_unit(self.affinity(j, last_frame).as_ref()).map(|u| (j, u)))
             .min_by_key(|(j, _)| (-j.cfg.priority, in_flight.get(&j.seq).copied().unwrap_or(0), j.seq))
             .map(|(j, (tile, batch))| (j.seq, tile, batch));
         let Some((seq, tile, batch)) = pick else { return Ok(None) };
         let job = self.jobs.get_mut(&seq).expect("picked job exists");
         job.mark_issued(tile, batch, now);
+        let frame_index = job.frame_index_of(tile);
         self.next_lease += 1;
         let lease_id = format!("l{}-{}-{}", self.epoch, self.next_lease, seq);
         let deadline = now + self.lease_timeout_ms;
@@ -171,17 +181,46 @@ impl Scheduler {
         self.leases.insert(lease_id.clone(), rec);
         if let Some(w) = self.workers.get_mut(worker) {
             w.current = Some(format!("{}/{}/{}", job.cfg.id, tile, batch));
+            w.last_frame = Some((seq, frame_index));
         }
         Ok(Some(Lease {
             lease_id,
             job_id: job.cfg.id.clone(),
             scene_id: job.cfg.scene_id.clone(),
             params: job.cfg.params.clone(),
-            frame: 0,
+            frame: job.frame_number(frame_index),
             tile: job.tiles[tile].rect,
             samples: job.samples_of(batch),
             deadline_ms: self.lease_timeout_ms,
         }))
+    }
+
+    /// Where the worker's built scene is and where other workers are, for a job of several
+    /// frames (None for stills, or with frame affinity off).
+    fn affinity(&self, job: &JobRun, last_frame: Option<(u64, usize)>) -> Option<frames::Affinity> {
+        if !self.frame_affinity || job.frame_count() < 2 {
+            return None;
+        }
+        let mut busy = vec![0; job.frame_count()];
+        for l in self.leases.values().filter(|l| l.job_seq == job.seq) {
+            busy[job.frame_index_of(l.tile)] += 1;
+        }
+        let last = last_frame.filter(|(seq, _)| *seq == job.seq).map(|(_, f)| f);
+        Some(frames::Affinity { last, busy })
+    }
+
+    /// Turns frame affinity on or off (on by default).
+    pub fn set_frame_affinity(&mut self, on: bool) {
+        self.frame_affinity = on;
+    }
+
+    /// Records how the worker holding `lease_id` prepared its scene (reported with the result).
+    pub fn note_prepare(&mut self, lease_id: &str, kind: PrepareKind, ms: f64) {
+        if let Some(l) = self.leases.get(lease_id)
+            && let Some(job) = self.jobs.get_mut(&l.job_seq)
+        {
+            job.note_prepare(l.tile, kind, ms);
+        }
     }
 
     /// Extends a live lease; None when it is gone (the worker should stop).

@@ -18,6 +18,7 @@ pub(super) fn config(id: &str, spp: u32, priority: i32) -> JobConfig {
         effects: vec![],
         request: JobRequest::default(),
         created_unix_ms: 0,
+        frames: vec![0],
     }
 }
 
@@ -48,7 +49,7 @@ fn every_unit_is_leased_once_breadth_first_and_the_job_completes() {
     let job = s.job("j").unwrap();
     assert_eq!(job.state, JobState::Done);
     assert_eq!(job.samples_done(), 8.0);
-    assert!(job.frame().iter().all(|p| p.count == 8));
+    assert!(job.frame_sums(0).iter().all(|p| p.count == 8));
 }
 
 #[test]
@@ -92,7 +93,7 @@ fn arrival_order_does_not_change_a_bit_of_the_image() {
         for g in order(drain(&mut s, &w, 0)) {
             s.complete(&g.lease_id, sums(&g, 0.37), 1).unwrap();
         }
-        s.job("j").unwrap().frame()
+        s.job("j").unwrap().frame_sums(0)
     };
     let forward = run(&|g| g);
     let backward = run(&|mut g| {

@@ -44,7 +44,7 @@ impl Disk {
 }
 
 fn frame_bits(s: &Scheduler, id: &str) -> Vec<u64> {
-    s.job(id).unwrap().frame().iter().flat_map(|p| p.sum.iter().chain(&p.sum_sq).map(|v| v.to_bits()).chain([p.count])).collect()
+    s.job(id).unwrap().frame_sums(0).iter().flat_map(|p| p.sum.iter().chain(&p.sum_sq).map(|v| v.to_bits()).chain([p.count])).collect()
 }
 
 /// Renders a job from start to end on one scheduler, completing units in lease order.

@@ -30,7 +30,7 @@ fn merged_bits(order: &[usize]) -> (Vec<[u64; 7]>, Vec<Lease>) {
     }
     let job = s.job("j").unwrap();
     assert_eq!(job.state, JobState::Done);
-    let bits = job.frame().iter().map(|p| [p.sum[0], p.sum[1], p.sum[2], p.sum_sq[0], p.sum_sq[1], p.sum_sq[2], p.sum_lum_sq].map(f64::to_bits)).collect();
+    let bits = job.frame_sums(0).iter().map(|p| [p.sum[0], p.sum[1], p.sum[2], p.sum_sq[0], p.sum_sq[1], p.sum_sq[2], p.sum_lum_sq].map(f64::to_bits)).collect();
     (bits, grants)
 }
 
@@ -111,7 +111,7 @@ fn a_hundred_million_samples_in_a_thousand_batches_keep_the_mean_to_1e_9() {
         let sums = PartialSums { tile: g.tile, samples: g.samples, dropped: 0, max_weight: 1.0, pixels: vec![p] };
         assert!(s.complete(&g.lease_id, sums, 1).unwrap().merged);
     }
-    let merged = s.job("big").unwrap().frame()[0];
+    let merged = s.job("big").unwrap().frame_sums(0)[0];
     assert_eq!(merged.count, 100_000_000);
     let exact = exact_units as f64 * unit / 1e8;
     let mean = merged.sum[0] / merged.count as f64;

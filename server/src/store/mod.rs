@@ -162,11 +162,6 @@ impl Store {
             }
         }
     }
-
-    /// The final image's path.
-    pub fn image_path(&self, job_id: &str) -> PathBuf {
-        self.jobs_dir.join(format!("{job_id}.exr"))
-    }
 }
 
 #[cfg(test)]

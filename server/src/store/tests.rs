@@ -26,6 +26,7 @@ fn record(upto: u32) -> JobRecord {
             effects: vec![],
             request: JobRequest::default(),
             created_unix_ms: 0,
+            frames: vec![0],
         },
         seq: 1,
         state: JobState::Running,

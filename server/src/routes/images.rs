@@ -1,0 +1,111 @@
+//! The images of a job: its EXR and PNG preview, per frame for animations, and the whole
+//! sequence as a zip.
+//!
+//! A frame whose job is done is served from its file (`crate::state::Shared::image_path`,
+//! written once, so the bytes never change); otherwise the current merge is encoded on request.
+//! `/v1/jobs/{id}/image.exr` and `preview.png` show a job's first frame.
+use crate::error::AppError;
+use crate::state::{AppState, JobImage};
+use axum::extract::{Path, State};
+use axum::http::header;
+use axum::response::IntoResponse;
+use std::io::Write;
+use tessera_proto::Problem;
+
+/// The job's OpenEXR image (its first frame): final when done, else the current merge.
+#[utoipa::path(get, path = "/v1/jobs/{id}/image.exr", tag = "jobs", params(("id" = String, Path)),
+    responses((status = 200, content_type = "image/x-exr"), (status = 404, body = Problem)))]
+pub async fn image_exr(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
+    let bytes = frame_exr_bytes(&st, &id, 0).await?;
+    Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes))
+}
+
+/// An sRGB PNG preview of the current merge (the first frame).
+#[utoipa::path(get, path = "/v1/jobs/{id}/preview.png", tag = "jobs", params(("id" = String, Path)),
+    responses((status = 200, content_type = "image/png"), (status = 404, body = Problem)))]
+pub async fn preview_png(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
+    png(&st, &id, 0).await
+}
+
+/// One frame's OpenEXR image, by frame number: final when the job is done, else the current merge.
+#[utoipa::path(get, path = "/v1/jobs/{id}/frames/{n}/image.exr", tag = "jobs", params(("id" = String, Path), ("n" = u32, Path)),
+    responses((status = 200, content_type = "image/x-exr"), (status = 404, body = Problem)))]
+pub async fn frame_exr(State(st): State<AppState>, Path((id, n)): Path<(String, u32)>) -> Result<impl IntoResponse, AppError> {
+    let index = frame_index(&st, &id, n)?;
+    let bytes = frame_exr_bytes(&st, &id, index).await?;
+    Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes))
+}
+
+/// One frame's sRGB PNG preview, by frame number.
+#[utoipa::path(get, path = "/v1/jobs/{id}/frames/{n}/preview.png", tag = "jobs", params(("id" = String, Path), ("n" = u32, Path)),
+    responses((status = 200, content_type = "image/png"), (status = 404, body = Problem)))]
+pub async fn frame_png(State(st): State<AppState>, Path((id, n)): Path<(String, u32)>) -> Result<impl IntoResponse, AppError> {
+    let index = frame_index(&st, &id, n)?;
+    png(&st, &id, index).await
+}
+
+/// Every frame's EXR in one zip (stored, not recompressed: EXR is compressed already), named
+/// `frame_0000.exr`, … by frame number.
+#[utoipa::path(get, path = "/v1/jobs/{id}/frames.zip", tag = "jobs", params(("id" = String, Path)),
+    responses((status = 200, content_type = "application/zip"), (status = 404, body = Problem)))]
+pub async fn frames_zip(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
+    let numbers = {
+        let s = st.scheduler.lock().expect("lock");
+        let job = s.job(&id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
+        (0..job.frame_count()).map(|i| job.frame_number(i)).collect::<Vec<_>>()
+    };
+    let mut files = Vec::with_capacity(numbers.len());
+    for (index, n) in numbers.into_iter().enumerate() {
+        files.push((format!("frame_{n:04}.exr"), frame_exr_bytes(&st, &id, index).await?));
+    }
+    let zip = tokio::task::spawn_blocking(move || zip_stored(files)).await.map_err(AppError::internal)?.map_err(AppError::internal)?;
+    let disposition = format!("attachment; filename=\"{id}-frames.zip\"");
+    Ok(([(header::CONTENT_TYPE, "application/zip".to_string()), (header::CONTENT_DISPOSITION, disposition)], zip))
+}
+
+fn zip_stored(files: Vec<(String, Vec<u8>)>) -> anyhow::Result<Vec<u8>> {
+    let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored).large_file(true);
+    for (name, bytes) in files {
+        zip.start_file(name, options)?;
+        zip.write_all(&bytes)?;
+    }
+    Ok(zip.finish()?.into_inner())
+}
+
+/// The index of frame number `n` in the job's range.
+fn frame_index(st: &AppState, id: &str, n: u32) -> Result<usize, AppError> {
+    let s = st.scheduler.lock().expect("lock");
+    let job = s.job(id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
+    (0..job.frame_count())
+        .find(|&i| job.frame_number(i) == n)
+        .ok_or_else(|| AppError::not_found(format!("job {id:?} has no frame {n} (its frames are {:?})", job.cfg.frames)))
+}
+
+async fn frame_exr_bytes(st: &AppState, id: &str, index: usize) -> Result<Vec<u8>, AppError> {
+    let done = st.scheduler.lock().expect("lock").job(id).is_some_and(|j| j.state == tessera_proto::JobState::Done);
+    if done {
+        // The job may have finished a moment ago, its files not yet written: write them now.
+        let (st2, id2) = (st.clone(), id.to_string());
+        tokio::task::spawn_blocking(move || st2.finalize(&id2)).await.map_err(AppError::internal)?;
+        if let Some(path) = st.frame_image_path(id, index)
+            && let Ok(bytes) = tokio::fs::read(path).await
+        {
+            return Ok(bytes);
+        }
+    }
+    let snapshot = snapshot(st, id, index)?;
+    tokio::task::spawn_blocking(move || snapshot.encode_exr()).await.map_err(AppError::internal)?.map_err(AppError::internal)
+}
+
+async fn png(st: &AppState, id: &str, index: usize) -> Result<impl IntoResponse + use<>, AppError> {
+    let snapshot = snapshot(st, id, index)?;
+    let png = tokio::task::spawn_blocking(move || snapshot.encode_png()).await.map_err(AppError::internal)?;
+    Ok(([(header::CONTENT_TYPE, "image/png"), (header::CACHE_CONTROL, "no-store")], png))
+}
+
+fn snapshot(st: &AppState, id: &str, index: usize) -> Result<JobImage, AppError> {
+    let s = st.scheduler.lock().expect("lock");
+    let job = s.job(id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
+    Ok(JobImage::of(job, index, st.now()))
+}
