@@ -20,6 +20,8 @@ mod tests_durability;
 #[cfg(test)]
 mod tests_dashboard;
 #[cfg(test)]
+mod tests_frames;
+#[cfg(test)]
 mod tests_images;
 #[cfg(test)]
 mod tests_jobs;

@@ -31,12 +31,15 @@ async fn openapi_documents_every_route_the_router_serves() {
     r.expect(StatusCode::OK);
     let doc = r.json();
     let paths = doc["paths"].as_object().expect("paths");
-    let served: [(&str, &[&str]); 15] = [
+    let served: [(&str, &[&str]); 18] = [
         ("/v1/jobs", &["get", "post"]),
         ("/v1/jobs/{id}", &["get", "delete"]),
         ("/v1/jobs/{id}/image.exr", &["get"]),
         ("/v1/jobs/{id}/preview.png", &["get"]),
         ("/v1/jobs/{id}/events", &["get"]),
+        ("/v1/jobs/{id}/frames/{n}/image.exr", &["get"]),
+        ("/v1/jobs/{id}/frames/{n}/preview.png", &["get"]),
+        ("/v1/jobs/{id}/frames.zip", &["get"]),
         ("/v1/scenes", &["get", "post"]),
         ("/v1/scenes/{id}", &["get"]),
         ("/v1/scenes/{id}/data", &["get"]),
