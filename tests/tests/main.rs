@@ -8,6 +8,7 @@ mod compose_farm;
 mod estimators;
 mod farm;
 mod faults;
+mod frames;
 mod harness;
 mod mitsuba;
 mod render_cli;
