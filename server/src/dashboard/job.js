@@ -1,4 +1,4 @@
-// One job: live progress, preview, noise chart, settings, effects, contributions, actions.
+// One job: live progress, preview, noise chart, settings, effects, contributions, frames, actions.
 import { call, download, watchJob } from "./api.js";
 import { renderChart, timeToTarget } from "./chart.js";
 import * as fmt from "./format.js";
@@ -22,6 +22,8 @@ class JobView {
     this.job = null;
     this.preview = { key: null, busy: false, url: null, last: 0, timer: null };
     this.spoken = null;
+    /** The animation frame the preview shows (null: the job's first frame). */
+    this.previewFrame = null;
     this.reset();
   }
 
@@ -32,6 +34,9 @@ class JobView {
     for (const id of ["j-progress-text", "j-live", "j-message", "j-chart-text"]) $(id).textContent = "";
     for (const id of ["j-facts", "j-effects", "j-chart"]) $(id).replaceChildren();
     $("j-contrib").tBodies[0].replaceChildren();
+    $("j-frames").tBodies[0].replaceChildren();
+    $("j-frames-card").hidden = true;
+    $("j-zip").onclick = () => this.act(() => download(`${this.path}/frames.zip`, `${this.id}-frames.zip`));
     $("j-target").value = "";
     const img = $("j-preview");
     img.removeAttribute("src");
@@ -78,6 +83,7 @@ class JobView {
     this.facts(job);
     $("j-effects").replaceChildren(...job.effects.map((e) => fmt.el("li", { text: e.replaceAll("_", " ") })));
     this.contributions(job);
+    this.frames(job);
     this.chart(job);
     this.refreshPreview();
   }
@@ -95,6 +101,7 @@ class JobView {
     const rows = [
       ["Scene", fmt.sceneLabel(r.scene)],
       ["Size", fmt.size(r)],
+      ["Frames", r.frames ? `${r.frames.start}–${r.frames.end}${(r.frames.step || 1) > 1 ? ` every ${r.frames.step}` : ""} at ${r.frames.fps ?? 24} fps` : "still"],
       ["Estimator", r.estimator || "mis"],
       ["Sampler", r.sampler || "sobol"],
       ["Seed", String(r.seed ?? 0)],
@@ -131,6 +138,34 @@ class JobView {
     $("j-contrib").tBodies[0].replaceChildren(...rows);
   }
 
+  /** Per-frame progress for jobs with a frame range; a row's button puts that frame in the preview. */
+  frames(job) {
+    const animated = Boolean(job.request.frames);
+    $("j-frames-card").hidden = !animated;
+    if (!animated) return;
+    const rows = (job.frames || []).map((f) => {
+      const show = fmt.el("button", { type: "button", text: f.frame === this.previewFrame ? "shown" : "preview" });
+      show.onclick = () => {
+        this.previewFrame = f.frame;
+        this.preview.key = null;
+        this.frames(this.job);
+        this.refreshPreview();
+      };
+      const exr = fmt.el("button", { type: "button", text: "EXR" });
+      exr.onclick = () => this.act(() => download(`${this.path}/frames/${f.frame}/image.exr`, `${this.id}_${String(f.frame).padStart(4, "0")}.exr`));
+      return fmt.el(
+        "tr", {},
+        fmt.el("th", { scope: "row", text: `${f.frame}${f.done ? " ✓" : ""}` }),
+        fmt.el("td", { class: "num", text: `${f.time_s.toFixed(3)} s` }),
+        fmt.el("td", { class: "num", text: f.samples_done.toFixed(1) }),
+        fmt.el("td", { class: "num", text: fmt.noise(f.noise) }),
+        fmt.el("td", { class: "num", text: `${f.builds} / ${f.refits} (${fmt.duration(f.prepare_ms / 1000)})` }),
+        fmt.el("td", {}, show, " ", exr),
+      );
+    });
+    $("j-frames").tBodies[0].replaceChildren(...rows);
+  }
+
   chart(job) {
     const typed = Number($("j-target").value);
     const target = typed > 0 ? typed : job.request.noise_target || null;
@@ -147,7 +182,7 @@ class JobView {
   refreshPreview() {
     const p = this.preview;
     const job = this.job;
-    const key = `${job.progress.samples_done}|${job.state}`;
+    const key = `${job.progress.samples_done}|${job.state}|${this.previewFrame}`;
     if (key === p.key || p.busy || p.timer) return;
     const wait = p.last + PREVIEW_EVERY_MS - Date.now();
     if (wait > 0) {
@@ -169,13 +204,16 @@ class JobView {
   }
 
   async loadPreview(samples) {
-    const blob = await (await call(`${this.path}/preview.png`, { signal: this.ctl.signal })).blob();
+    const frame = this.previewFrame;
+    const path = frame === null ? `${this.path}/preview.png` : `${this.path}/frames/${frame}/preview.png`;
+    const blob = await (await call(path, { signal: this.ctl.signal })).blob();
     const url = URL.createObjectURL(blob);
     const img = $("j-preview");
     const old = this.preview.url;
     img.src = url;
     img.dataset.samples = String(samples);
-    $("j-preview-cap").textContent = `Preview at ${samples.toFixed(1)} samples per pixel (sRGB)`;
+    const which = frame === null ? "" : `Frame ${frame}: `;
+    $("j-preview-cap").textContent = `${which}Preview at ${samples.toFixed(1)} samples per pixel (sRGB)`;
     this.preview.url = url;
     if (old) setTimeout(() => URL.revokeObjectURL(old), 1000);
   }
