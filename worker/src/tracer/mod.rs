@@ -24,7 +24,7 @@ mod chi2;
 mod numerics;
 
 pub use film::{PixelSums, Tile, TileSums};
-pub use integrator::{Estimator, Roulette};
+pub use integrator::{Estimator, PathSettings, Roulette};
 pub use effects::{Effects, KernelBits};
 pub use render::{RenderSettings, render_tile, render_tile_cancellable, render_tile_kernel};
 pub use scene::Scene;

@@ -1,0 +1,67 @@
+//! No allocation per sample: rendering a tile allocates the same number of times whether it
+//! takes 4 or 64 samples per pixel, on every bundled scene (so for every effect kernel).
+//!
+//! A counting global allocator sees every allocation in this test binary, which holds this one
+//! test only, so nothing else allocates concurrently. Per-unit and per-row allocations (the
+//! tile's sums, rayon's bookkeeping) are allowed: they do not grow with the sample count.
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicU64, Ordering};
+use tessera_worker::tracer::sampler::SamplerKind;
+use tessera_worker::tracer::{PathSettings, RenderSettings, Tile, render_tile};
+
+struct Counting;
+
+static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations_for(scene: &tessera_worker::tracer::Scene, settings: &RenderSettings, spp: u32) -> u64 {
+    let tile = Tile { x0: 8, y0: 8, w: 16, h: 16 };
+    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    let sums = render_tile(scene, settings, tile, 0..spp).expect("renders");
+    let after = ALLOCATIONS.load(Ordering::Relaxed);
+    assert_eq!(sums.pixels.iter().map(|p| p.count).sum::<u64>() + sums.dropped, u64::from(spp) * 256);
+    drop(sums);
+    after - before
+}
+
+#[test]
+fn the_hot_loop_does_not_allocate_per_sample() {
+    let scenes = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes");
+    let mut names: Vec<_> = std::fs::read_dir(scenes).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "gltf")).collect();
+    names.sort();
+    assert!(names.len() >= 9, "bundled scenes: {names:?}");
+    // One thread: rayon's workers are started once, outside what is counted.
+    rayon::ThreadPoolBuilder::new().num_threads(1).build_global().unwrap();
+    for path in names {
+        let scene = tessera_worker::scene::load_path(&path).unwrap();
+        let settings = RenderSettings {
+            width: 32,
+            height: 32,
+            seed: 1,
+            sampler: SamplerKind::Sobol,
+            path: PathSettings::default(),
+            background: glam::Vec3::splat(0.2),
+            camera: None,
+        };
+        allocations_for(&scene, &settings, 4); // warm-up: lazily initialised statics
+        let few = allocations_for(&scene, &settings, 4);
+        let many = allocations_for(&scene, &settings, 64);
+        assert_eq!(many, few, "{}: {few} allocations at 4 spp but {many} at 64 spp", path.display());
+    }
+}
