@@ -83,3 +83,29 @@ fn a_refitted_frame_renders_the_bits_of_a_rebuilt_one() {
     let (_, how) = seq.scene_after(&still, Some(0), 0.0).unwrap();
     assert_eq!(how, Preparation::Build);
 }
+
+/// Benchmark, not a check: frame scene build vs refit for the animated Cornell box. Run with
+/// `cargo test -p tessera-worker --lib cornell_frame_build_vs_refit -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn cornell_frame_build_vs_refit() {
+    let seq = animated();
+    let ms = |t0: std::time::Instant| t0.elapsed().as_secs_f64() * 1e3;
+    let (mut build, mut refit, mut walk) = (0.0, 0.0, 0.0);
+    let mut previous = seq.scene_at(Some(0), 0.0).unwrap();
+    for frame in 1..8 {
+        let t = frame as f64 / FPS;
+        let t0 = std::time::Instant::now();
+        drop(seq.parsed_at(Some(0), t).unwrap());
+        walk += ms(t0);
+        let t0 = std::time::Instant::now();
+        drop(seq.scene_at(Some(0), t).unwrap());
+        build += ms(t0);
+        let t0 = std::time::Instant::now();
+        let (next, how) = seq.scene_after(&previous, Some(0), t).unwrap();
+        refit += ms(t0);
+        assert_eq!(how, Preparation::Refit);
+        previous = next;
+    }
+    println!("cornell-animated frames 1–7, mean per frame: node walk {:.3} ms; scene with BVH build {:.3} ms, with refit {:.3} ms", walk / 7.0, build / 7.0, refit / 7.0);
+}

@@ -13,7 +13,7 @@ use glam::{DVec3, Vec3, Vec3A};
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::ploc::PlocBuilder;
-use obvhs::{BvhBuildParams, aabb::Aabb, bvh2::Bvh2, cwbvh::CwBvh, ray::RayHit, triangle::Triangle};
+use obvhs::{BvhBuildParams, bvh2::Bvh2, cwbvh::CwBvh, ray::RayHit, triangle::Triangle};
 use std::time::Duration;
 
 /// Which obvhs tree to build. The wide BVH is faster; the binary one is kept for cross-checks.
@@ -38,14 +38,7 @@ pub struct Accel {
     scale: f32,
     /// The binary tree the wide one was converted from, kept by [`Accel::build_refittable`] so
     /// [`Accel::refit`] can move its boxes instead of building again.
-    refit: Option<RefitBase>,
-}
-
-/// What a refit needs: the caller's triangles the tree holds (its primitives, in input order)
-/// and the binary tree over them.
-struct RefitBase {
-    keep: Vec<u32>,
-    bvh2: Bvh2,
+    refit: Option<refit::RefitBase>,
 }
 
 /// Closest hit: ray parameter and barycentrics (b0 = 1 − b1 − b2) on triangle `prim`.
@@ -97,46 +90,14 @@ impl Accel {
             BvhKind::Binary => (Tree::Binary(obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time)), None),
         };
         let refit = match (&tree, bvh2) {
-            (Tree::Wide(_), Some(bvh2)) => Some(RefitBase { keep: keep.clone(), bvh2 }),
-            (Tree::Binary(b), _) => Some(RefitBase { keep: keep.clone(), bvh2: b.clone() }),
+            (Tree::Wide(_), Some(bvh2)) => Some(refit::RefitBase { keep: keep.clone(), bvh2 }),
+            (Tree::Binary(b), _) => Some(refit::RefitBase { keep: keep.clone(), bvh2: b.clone() }),
             _ => None,
         };
         Accel::assemble(tree, tris, &keep, scale, refit)
     }
 
-    /// The tree for `tris`, made by moving the boxes of this one (built by
-    /// [`Accel::build_refittable`] over triangles that have since moved), not by building anew:
-    /// same topology, boxes refitted bottom-up, and for the wide tree a new conversion from the
-    /// refitted binary one. None when that is not possible: no binary tree kept, a different
-    /// set of (non-degenerate) triangles, or a wide tree that would be too deep.
-    ///
-    /// Hits do not depend on the tree: the closest hit is the smallest (t, triangle index)
-    /// whatever the traversal order (see [`Accel::intersect_where`]).
-    pub fn refit(&self, tris: &[[Vec3; 3]]) -> Option<Accel> {
-        let base = self.refit.as_ref()?;
-        if kept(tris) != base.keep {
-            return None;
-        }
-        let scale = tree_scale(base.keep.iter().map(|&i| &tris[i as usize]));
-        let obvhs_tris = tree_triangles(tris, &base.keep, scale);
-        let mut bvh2 = base.bvh2.clone();
-        refit_boxes(&mut bvh2, &obvhs_tris);
-        let tree = match &self.tree {
-            Tree::Wide(_) => {
-                let wide = to_wide(&bvh2, BvhBuildParams::medium_build());
-                if wide_depth(&wide) >= WIDE_STACK {
-                    return None;
-                }
-                Tree::Wide(wide)
-            }
-            Tree::Binary(_) => Tree::Binary(bvh2.clone()),
-            Tree::Empty => return None,
-        };
-        let keep = base.keep.clone();
-        Some(Accel::assemble(tree, tris, &keep, scale, Some(RefitBase { keep: keep.clone(), bvh2 })))
-    }
-
-    fn assemble(tree: Tree, tris: &[[Vec3; 3]], keep: &[u32], scale: f32, refit: Option<RefitBase>) -> Accel {
+    fn assemble(tree: Tree, tris: &[[Vec3; 3]], keep: &[u32], scale: f32, refit: Option<refit::RefitBase>) -> Accel {
         let slots = match &tree {
             Tree::Wide(b) => &b.primitive_indices,
             Tree::Binary(b) => &b.primitive_indices,
@@ -259,17 +220,6 @@ fn wide_source(tris: &[Triangle], params: BvhBuildParams) -> Bvh2 {
 
 fn to_wide(bvh2: &Bvh2, params: BvhBuildParams) -> CwBvh {
     bvh2_to_cwbvh(bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false)
-}
-
-/// Leaf boxes from the moved triangles, then every inner box from its children.
-fn refit_boxes(bvh2: &mut Bvh2, tris: &[Triangle]) {
-    for node in bvh2.nodes.iter_mut().filter(|n| n.is_leaf()) {
-        let first = node.first_index as usize;
-        let prims = &bvh2.primitive_indices[first..first + node.prim_count as usize];
-        let aabb = prims.iter().map(|&p| tris[p as usize].aabb()).reduce(|a, b| a.union(&b)).unwrap_or(Aabb::INVALID);
-        node.set_aabb(aabb);
-    }
-    bvh2.refit_all();
 }
 
 /// obvhs's wide-tree traversal stack (`TRAVERSAL_STACK_SIZE`, private there).
@@ -463,6 +413,9 @@ pub(crate) fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(f32, u32)> {
     }
     best
 }
+
+#[path = "accel_refit.rs"]
+mod refit;
 
 #[cfg(test)]
 #[path = "accel_tests.rs"]

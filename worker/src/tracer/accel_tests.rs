@@ -190,3 +190,33 @@ fn refit_refuses_another_triangle_set() {
     assert!(accel.refit(&collapsed).is_none(), "a triangle became degenerate");
     assert!(accel.refit(&tris).is_some());
 }
+
+/// Benchmark, not a check: BVH build vs refit time (and the refitted tree's traversal speed)
+/// for ~100k moving triangles. Run with
+/// `cargo test -p tessera-worker --lib bvh_build_vs_refit -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn bvh_build_vs_refit() {
+    let mut rng = Rng(99);
+    let tris = soup(&mut rng, 100_000);
+    // The next "frame": every triangle moved a little (a wobble), as animated geometry does.
+    let moved: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|v| v + Vec3::new(0.02 * (v.y * 9.0).sin(), 0.0, 0.01))).collect();
+    let time = |f: &mut dyn FnMut()| {
+        let t0 = std::time::Instant::now();
+        for _ in 0..3 {
+            f();
+        }
+        t0.elapsed().as_secs_f64() * 1e3 / 3.0
+    };
+    let first = Accel::build_refittable(&tris, BvhKind::Wide);
+    let build_ms = time(&mut || drop(Accel::build_refittable(&moved, BvhKind::Wide)));
+    let refit_ms = time(&mut || drop(first.refit(&moved).unwrap()));
+    let (rebuilt, refit) = (Accel::build(&moved, BvhKind::Wide), first.refit(&moved).unwrap());
+    let rays: Vec<Ray> = (0..200_000).map(|_| Ray::new(rng.vec() * 3.0 - Vec3::ONE, (rng.vec() - Vec3::splat(0.5)).normalize_or(Vec3::X))).collect();
+    let trace = |a: &Accel| time(&mut || rays.iter().for_each(|r| {
+        std::hint::black_box(a.intersect(r, f32::INFINITY));
+    }));
+    let (rebuilt_ms, refit_trace_ms) = (trace(&rebuilt), trace(&refit));
+    println!("100k triangles, wide BVH, 1 thread: build {build_ms:.1} ms, refit {refit_ms:.1} ms");
+    println!("200k random rays: rebuilt tree {rebuilt_ms:.1} ms, refitted tree {refit_trace_ms:.1} ms");
+}
