@@ -6,7 +6,9 @@
 //! `KHR_materials_specular`, `KHR_materials_ior`, `KHR_materials_emissive_strength`, base-colour
 //! textures (PNG/JPEG) and the project's `TESSERA_materials_phong`; `KHR_materials_transmission`
 //! and `KHR_materials_volume` (glass, absorption); `alphaMode: MASK`; perspective cameras with an
-//! optional thin lens in `extras`; `KHR_lights_punctual`.
+//! optional thin lens in `extras`; `KHR_lights_punctual`; animations of node translation,
+//! rotation and scale ([`animation`]), played frame by frame through a [`Sequence`] (the file
+//! parsed once; each frame's BVH built, or refitted from another frame's).
 //!
 //! Every error names what is wrong and where ("mesh 3 primitive 0: POSITION accessor count 0").
 //! External files may only be plain relative paths below the scene's own directory.
