@@ -729,12 +729,82 @@ def scene_alpha_mask() -> dict:
     return g.finish()
 
 
+def _float_accessor(g: Gltf, values: list[float], kind: str, bounds: bool = False) -> int:
+    """An f32 accessor of SCALAR / VEC3 / VEC4 elements given flat."""
+    width = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}[kind]
+    flat = [f32(c) for c in values]
+    view = g._view(struct.pack("<%df" % len(flat), *flat), None)
+    acc = {"bufferView": view, "byteOffset": 0, "componentType": FLOAT, "count": len(flat) // width, "type": kind}
+    if bounds:  # glTF requires min/max on animation inputs
+        acc["min"] = [min(flat[k::width]) for k in range(width)]
+        acc["max"] = [max(flat[k::width]) for k in range(width)]
+    g.doc["accessors"].append(acc)
+    return len(g.doc["accessors"]) - 1
+
+
+ROLL_RADIUS = 0.05
+ROLL_FROM_X, ROLL_TO_X, ROLL_Z, ROLL_SECONDS = 0.50, 0.36, 0.15, 0.5
+
+
+def scene_cornell_animated() -> dict:
+    """The Cornell box with a two-coloured ball rolling (without slipping) along -x in front of
+    the tall block, and a camera dolly forward; one animation "roll", 1 s long."""
+    g = Gltf("Cornell box, animated")
+    mats = {}
+    for name, m in CORNELL_MATERIALS.items():
+        if m["radiance"] is None:
+            mats[name] = g.material(lambert(name, m["albedo"]))
+        else:
+            e, s = radiance_to_emissive(m["radiance"])
+            mats[name] = g.material(lambert(name, m["albedo"], e, s))
+    for obj in cornell_box_objects():
+        g.node(obj["name"], mesh=g.flat_mesh(obj["name"], obj["triangles"], mats[obj["material"]]))
+    # The ball: a UV sphere split into two halves of different colours, so its rotation shows.
+    pos, nrm, idx = uv_sphere(ROLL_RADIUS, 32, 16)
+    halves = ([], [])
+    for k in range(0, len(idx), 3):
+        tri = idx[k:k + 3]
+        halves[sum(pos[i][0] for i in tri) > 0.0].extend(tri)
+    a_pos, a_nrm = g.vec3_accessor(pos, with_bounds=True), g.vec3_accessor(nrm, with_bounds=False)
+    ball_mats = (g.material(lambert("ball_blue", (0.1, 0.2, 0.8))), g.material(lambert("ball_yellow", (0.85, 0.75, 0.1))))
+    g.doc["meshes"].append({"name": "ball", "primitives": [
+        {"attributes": {"POSITION": a_pos, "NORMAL": a_nrm}, "indices": g.index_accessor(h), "material": m, "mode": 4}
+        for h, m in zip(halves, ball_mats)]})
+    ball = g.node("ball", translation=(ROLL_FROM_X, ROLL_RADIUS, ROLL_Z), mesh=len(g.doc["meshes"]) - 1)
+    c = CORNELL_CAMERA
+    cam = g.camera(c["name"], math.radians(c["yfov_deg"]), c["position"], rotation=c["rotation"])
+
+    # Translation: LINEAR over ROLL_SECONDS, then at rest. Rotation: rolling without slipping
+    # about +z (velocity -x, up +y: omega = up x v / r), keyed every 1/8 s so consecutive keys
+    # are less than pi apart (slerp takes the shorter arc).
+    keys = [k * ROLL_SECONDS / 4 for k in range(5)] + [1.0]
+    xs = [ROLL_FROM_X + (ROLL_TO_X - ROLL_FROM_X) * min(t / ROLL_SECONDS, 1.0) for t in keys]
+    t_keys = _float_accessor(g, keys, "SCALAR", bounds=True)
+    trans = _float_accessor(g, [v for x in xs for v in (x, ROLL_RADIUS, ROLL_Z)], "VEC3")
+    rot = _float_accessor(g, [v for x in xs for v in quat_axis_angle((0.0, 0.0, 1.0), (ROLL_FROM_X - x) / ROLL_RADIUS)], "VEC4")
+    # Camera dolly: CUBICSPLINE, (in-tangent, value, out-tangent) per key, tangents in m/s.
+    cam_keys = [0.0, 0.5, 1.0]
+    cam_z = [(0.15, c["position"][2], 0.15), (0.2, -0.72, 0.2), (0.25, -0.60, 0.0)]
+    cam_t = _float_accessor(g, cam_keys, "SCALAR", bounds=True)
+    cam_v = _float_accessor(g, [v for (a, z, b) in cam_z for v in (0.0, 0.0, a, c["position"][0], c["position"][1], z, 0.0, 0.0, b)], "VEC3")
+    g.doc["animations"] = [{
+        "name": "roll",
+        "samplers": [{"input": t_keys, "output": trans, "interpolation": "LINEAR"},
+                     {"input": t_keys, "output": rot, "interpolation": "LINEAR"},
+                     {"input": cam_t, "output": cam_v, "interpolation": "CUBICSPLINE"}],
+        "channels": [{"sampler": 0, "target": {"node": ball, "path": "translation"}},
+                     {"sampler": 1, "target": {"node": ball, "path": "rotation"}},
+                     {"sampler": 2, "target": {"node": cam, "path": "translation"}}],
+    }]
+    return g.finish()
+
 SCENES = {
     "absorption.gltf": scene_absorption,
     "alpha-mask.gltf": scene_alpha_mask,
     "depth-of-field.gltf": scene_depth_of_field,
     "glass.gltf": scene_glass,
     "cornell-box.gltf": scene_cornell_box,
+    "cornell-animated.gltf": scene_cornell_animated,
     "furnace.gltf": scene_furnace,
     "glossy.gltf": scene_glossy,
     "phong.gltf": scene_phong,

@@ -6,6 +6,7 @@ use std::path::Path;
 pub const SCENES: &[(&str, &[u8])] = &[
     ("absorption", include_bytes!("../../scenes/absorption.gltf")),
     ("alpha-mask", include_bytes!("../../scenes/alpha-mask.gltf")),
+    ("cornell-animated", include_bytes!("../../scenes/cornell-animated.gltf")),
     ("cornell-box", include_bytes!("../../scenes/cornell-box.gltf")),
     ("depth-of-field", include_bytes!("../../scenes/depth-of-field.gltf")),
     ("furnace", include_bytes!("../../scenes/furnace.gltf")),

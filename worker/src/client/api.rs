@@ -7,6 +7,7 @@ use anyhow::{Context, bail};
 use percent_encoding::{AsciiSet, NON_ALPHANUMERIC, utf8_percent_encode};
 use reqwest::{Client, Method, RequestBuilder, Response, StatusCode};
 use std::time::Duration;
+use super::prepare::Prepared;
 use tessera_proto::{Heartbeat, Lease, LeaseRequest, Problem, Registration, WorkerHello};
 
 #[derive(Debug)]
@@ -45,6 +46,10 @@ pub(crate) enum UploadAnswer {
     /// 422, with the coordinator's explanation.
     Malformed(String),
 }
+
+/// Result upload headers: how the unit's scene was prepared, and in how many milliseconds.
+pub(crate) const PREPARE: &str = "x-tessera-prepare";
+pub(crate) const PREPARE_MS: &str = "x-tessera-prepare-ms";
 
 /// Request timeouts. Scene downloads may be large, hence their long one.
 const JSON_TIMEOUT: Duration = Duration::from_secs(30);
@@ -131,11 +136,15 @@ impl Api {
         }
     }
 
-    pub(crate) async fn upload(&self, lease_id: &str, body: Vec<u8>) -> Result<UploadAnswer, CallError> {
+    /// Uploads a unit's sums, saying how its scene was prepared (`x-tessera-prepare`: cached,
+    /// build or refit; `x-tessera-prepare-ms`: milliseconds, 0 when cached).
+    pub(crate) async fn upload(&self, lease_id: &str, body: Vec<u8>, prepared: Prepared) -> Result<UploadAnswer, CallError> {
         let path = format!("/v1/leases/{}/result", segment(lease_id));
         let rb = self
             .request(Method::PUT, &path, UPLOAD_TIMEOUT)
             .header(reqwest::header::CONTENT_TYPE, tessera_proto::sums::CONTENT_TYPE)
+            .header(PREPARE, prepared.how.name())
+            .header(PREPARE_MS, prepared.ms.to_string())
             .body(body);
         let resp = send(rb, "result upload").await?;
         match resp.status() {

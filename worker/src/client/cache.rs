@@ -1,54 +1,74 @@
-//! The last few loaded scenes, by scene id, so each BVH is built once per scene per worker.
+//! What a worker keeps between units: parsed scene files ([`Sequence`]) by scene id, and the
+//! last few frame scenes (with their BVHs) by (scene id, animation, time), so each frame is
+//! built once per worker and the next frame of an animation can refit the last one's BVH.
 //! Scenes that failed to load are remembered too (loading is deterministic), so a broken scene
 //! is not downloaded again for every lease of its job.
+use crate::scene::Sequence;
 use crate::tracer::Scene;
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-pub(crate) const SCENES_KEPT: usize = 4;
+/// Frame scenes kept (each holds its triangles and BVH: the memory that matters).
+pub(crate) const FRAMES_KEPT: usize = 4;
+/// Parsed files kept (decoded buffers and textures).
+const SEQUENCES_KEPT: usize = 2;
 const FAILURES_KEPT: usize = 16;
 
-#[derive(Debug, Default)]
+/// One frame of a scene: the animation played (None: the static pose) and the time in seconds
+/// (as bits, 0 for the static pose).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct FrameKey {
+    pub scene_id: String,
+    pub animation: Option<usize>,
+    pub time_bits: u64,
+}
+
+/// Least recently used first.
+#[derive(Debug)]
+pub(crate) struct Lru<K, V> {
+    capacity: usize,
+    entries: VecDeque<(K, V)>,
+}
+
+impl<K: PartialEq, V: Clone> Lru<K, V> {
+    pub(crate) fn new(capacity: usize) -> Lru<K, V> {
+        Lru { capacity, entries: VecDeque::new() }
+    }
+
+    /// The value for `key`, which becomes the most recently used.
+    pub(crate) fn get(&mut self, key: &K) -> Option<V> {
+        let i = self.entries.iter().position(|(k, _)| k == key)?;
+        let entry = self.entries.remove(i).expect("index from position");
+        let value = entry.1.clone();
+        self.entries.push_back(entry);
+        Some(value)
+    }
+
+    /// The most recently used value whose key `matches`, left in place.
+    pub(crate) fn latest(&self, matches: impl Fn(&K) -> bool) -> Option<V> {
+        self.entries.iter().rev().find(|(k, _)| matches(k)).map(|(_, v)| v.clone())
+    }
+
+    pub(crate) fn insert(&mut self, key: K, value: V) {
+        self.entries.retain(|(k, _)| *k != key);
+        self.entries.push_back((key, value));
+        while self.entries.len() > self.capacity {
+            self.entries.pop_front();
+        }
+    }
+}
+
+#[derive(Debug)]
 pub(crate) struct SceneCache {
-    /// Least recently used first.
-    scenes: VecDeque<(String, Arc<Scene>)>,
-    failures: VecDeque<(String, String)>,
+    pub sequences: Lru<String, Arc<Sequence>>,
+    pub frames: Lru<FrameKey, Arc<Scene>>,
+    /// Why a scene id (or a frame: its key, formatted) does not load.
+    pub failures: Lru<String, String>,
 }
 
-pub(crate) enum Cached {
-    Scene(Arc<Scene>),
-    Failed(String),
-    Missing,
-}
-
-impl SceneCache {
-    pub(crate) fn get(&mut self, id: &str) -> Cached {
-        if let Some(i) = self.scenes.iter().position(|(k, _)| k == id) {
-            let entry = self.scenes.remove(i).expect("index from position");
-            let scene = entry.1.clone();
-            self.scenes.push_back(entry);
-            return Cached::Scene(scene);
-        }
-        match self.failures.iter().find(|(k, _)| k == id) {
-            Some((_, e)) => Cached::Failed(e.clone()),
-            None => Cached::Missing,
-        }
-    }
-
-    pub(crate) fn insert(&mut self, id: &str, scene: Arc<Scene>) {
-        self.scenes.retain(|(k, _)| k != id);
-        self.scenes.push_back((id.to_owned(), scene));
-        while self.scenes.len() > SCENES_KEPT {
-            self.scenes.pop_front();
-        }
-    }
-
-    pub(crate) fn insert_failure(&mut self, id: &str, error: String) {
-        self.failures.retain(|(k, _)| k != id);
-        self.failures.push_back((id.to_owned(), error));
-        while self.failures.len() > FAILURES_KEPT {
-            self.failures.pop_front();
-        }
+impl Default for SceneCache {
+    fn default() -> SceneCache {
+        SceneCache { sequences: Lru::new(SEQUENCES_KEPT), frames: Lru::new(FRAMES_KEPT), failures: Lru::new(FAILURES_KEPT) }
     }
 }
 
@@ -56,25 +76,21 @@ impl SceneCache {
 mod tests {
     use super::*;
 
-    fn scene() -> Arc<Scene> {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/furnace.gltf");
-        Arc::new(crate::scene::load_path(std::path::Path::new(path)).unwrap())
-    }
-
     #[test]
-    fn keeps_the_most_recently_used_scenes() {
-        let s = scene();
-        let mut c = SceneCache::default();
-        for id in ["a", "b", "c", "d"] {
-            c.insert(id, s.clone());
+    fn keeps_the_most_recently_used_entries() {
+        let mut c: Lru<&str, u32> = Lru::new(4);
+        for (i, id) in ["a", "b", "c", "d"].into_iter().enumerate() {
+            c.insert(id, i as u32);
         }
-        assert!(matches!(c.get("a"), Cached::Scene(_))); // "a" is now the most recent
-        c.insert("e", s.clone()); // evicts "b"
-        assert!(matches!(c.get("b"), Cached::Missing));
+        assert_eq!(c.get(&"a"), Some(0)); // "a" is now the most recent
+        c.insert("e", 4); // evicts "b"
+        assert_eq!(c.get(&"b"), None);
         for id in ["a", "c", "d", "e"] {
-            assert!(matches!(c.get(id), Cached::Scene(_)), "{id}");
+            assert!(c.get(&id).is_some(), "{id}");
         }
-        c.insert_failure("x", "broken".into());
-        assert!(matches!(c.get("x"), Cached::Failed(e) if e == "broken"));
+        assert_eq!(c.latest(|k| *k < "e"), Some(3), "the most recent of a, c, d is d");
+        c.insert("c", 9); // replaces, becomes the most recent
+        assert_eq!(c.latest(|k| *k < "e"), Some(9));
+        assert_eq!(c.entries.len(), 4);
     }
 }

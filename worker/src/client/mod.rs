@@ -11,7 +11,8 @@
 //! - this file: [`run`], the loop, one unit's life (`Worker::run_unit`) and result uploads.
 //! - `api`: one function per endpoint, answers sorted into what the loop acts on.
 //! - `retry`: backoff with jitter, the shutdown signal, retry-until-done.
-//! - `cache`: the last few loaded scenes by id.
+//! - `cache`: parsed scene files by id and the last few frame scenes (with their BVHs).
+//! - `prepare`: the scene of a lease's frame: cached, refitted from the last frame, or built.
 //! - `convert`: proto ⇄ tracer types ([`to_wire`], [`render_settings`]).
 //!
 //! # Rules
@@ -27,16 +28,18 @@
 mod api;
 mod cache;
 mod convert;
+mod prepare;
 mod retry;
 #[cfg(test)]
 mod tests;
 
 pub use convert::{render_settings, to_wire};
 
-use crate::tracer::{Scene, TileSums, render_tile_cancellable};
+use crate::tracer::{TileSums, render_tile_cancellable};
 use anyhow::{Context, anyhow};
 use api::{Api, CallError, HeartbeatAnswer, LeaseAnswer, UploadAnswer};
-use cache::{Cached, SceneCache};
+use cache::SceneCache;
+use prepare::Prepared;
 use retry::{Backoff, RETRY, Retried, Stop, until_done};
 use std::future::Future;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -81,7 +84,6 @@ const SHUTDOWN_UPLOAD_WAIT: Duration = Duration::from_secs(5);
 const LEASE_DRAIN: Duration = Duration::from_millis(20);
 /// Polling while the coordinator has no work (204), and after a unit that could not be worked.
 const IDLE: Backoff = Backoff::new(Duration::from_millis(50), Duration::from_secs(1));
-const SCENE_ATTEMPTS: u32 = 5;
 const RELEASE_ATTEMPTS: u32 = 3;
 
 /// Runs a worker until `shutdown` resolves (then finishes up as described in the module docs).
@@ -109,6 +111,7 @@ enum Unit {
     Rendered {
         sums: TileSums,
         deadline: Instant,
+        prepared: Prepared,
     },
     /// The lease was lost (409 on heartbeat, or its deadline passed): dropped.
     Canceled,
@@ -193,13 +196,13 @@ impl Worker {
                 }
             };
             match self.run_unit(&lease, heartbeat_every(&reg), stop).await {
-                Unit::Rendered { sums, deadline } => {
+                Unit::Rendered { sums, deadline, prepared } => {
                     idle.reset();
                     let body = to_wire(&sums, lease.samples).encode();
                     if let Some(previous) = uploading.take() {
                         finish_upload(previous, stop, report).await;
                     }
-                    *uploading = Some(tokio::spawn(upload(self.api.clone(), lease.lease_id.clone(), body, deadline)));
+                    *uploading = Some(tokio::spawn(upload(self.api.clone(), lease.lease_id.clone(), body, prepared, deadline)));
                 }
                 Unit::Canceled => {
                     report.units_canceled += 1;
@@ -249,10 +252,10 @@ impl Worker {
         let keep_alive = self.keep_alive(id, heartbeat_every, &deadline);
         tokio::pin!(keep_alive);
 
-        // The scene: from the cache, or downloaded and loaded.
-        let scene = tokio::select! {
-            r = self.scene(&lease.scene_id) => match r {
-                Ok(scene) => scene,
+        // The frame's scene: from the cache, refitted, or built (downloading the file first).
+        let (scene, prepared) = tokio::select! {
+            r = self.frame_scene(lease) => match r {
+                Ok(made) => made,
                 Err(e) => {
                     error!(lease = id, scene = %lease.scene_id, "{e}; giving the lease back");
                     self.release(id).await;
@@ -313,7 +316,7 @@ impl Worker {
             Ok(Ok(Some(sums))) => {
                 debug!(lease = id, ms = started.elapsed().as_millis() as u64, "unit rendered");
                 let deadline = *deadline.lock().expect("deadline lock");
-                return Unit::Rendered { sums, deadline };
+                return Unit::Rendered { sums, deadline, prepared };
             }
             Ok(Ok(None)) => "the render stopped without being canceled".to_owned(),
             Ok(Err(e)) => format!("cannot render: {e}"),
@@ -346,56 +349,6 @@ impl Worker {
         }
     }
 
-    /// The scene `id`, from the cache or downloaded and loaded (on the render pool).
-    async fn scene(&self, id: &str) -> Result<Arc<Scene>, String> {
-        let cached = self.scenes.lock().expect("scene cache lock").get(id);
-        match cached {
-            Cached::Scene(scene) => return Ok(scene),
-            Cached::Failed(e) => return Err(e),
-            Cached::Missing => {}
-        }
-        let bytes = self.download(id).await?;
-        let (pool, cache, id) = (self.pool.clone(), self.scenes.clone(), id.to_owned());
-        // The cache is filled by the loading thread itself, so a scene still lands in it when
-        // the lease that wanted it is lost meanwhile.
-        tokio::task::spawn_blocking(move || {
-            let started = Instant::now();
-            match pool.install(|| crate::scene::load_bytes(&bytes, None)) {
-                Ok(scene) => {
-                    let triangles = scene.mesh.len();
-                    let scene = Arc::new(scene);
-                    cache.lock().expect("scene cache lock").insert(&id, scene.clone());
-                    info!(scene = %id, bytes = bytes.len(), triangles, ms = started.elapsed().as_millis() as u64, "scene loaded");
-                    Ok(scene)
-                }
-                Err(e) => {
-                    let msg = format!("scene {id} does not load: {e}");
-                    cache.lock().expect("scene cache lock").insert_failure(&id, msg.clone());
-                    Err(msg)
-                }
-            }
-        })
-        .await
-        .map_err(|e| format!("the scene loader failed: {e}"))?
-    }
-
-    async fn download(&self, id: &str) -> Result<Vec<u8>, String> {
-        let mut backoff = RETRY;
-        let mut attempt = 0;
-        loop {
-            attempt += 1;
-            match self.api.scene(id).await {
-                Ok(bytes) => return Ok(bytes),
-                Err(CallError::Transient(e)) if attempt < SCENE_ATTEMPTS => {
-                    let delay = backoff.next_delay();
-                    warn!(scene = id, attempt, retry_in_ms = delay.as_millis() as u64, "{e}");
-                    tokio::time::sleep(delay).await;
-                }
-                Err(e) => return Err(format!("cannot download the scene ({e})")),
-            }
-        }
-    }
-
     /// Gives a lease back (a few attempts; if they all fail the lease simply expires).
     async fn release(&self, id: &str) {
         let mut backoff = RETRY;
@@ -423,8 +376,11 @@ fn heartbeat_every(reg: &Registration) -> Duration {
     Duration::from_millis((reg.heartbeat_ms / 3).clamp(10, 1000))
 }
 
+/// The unit's render settings; frame n of an animation is rendered with its own seed
+/// ([`frame_seed`](crate::tracer::sampler::frame_seed), the job's seed for frame 0).
 fn check_unit(lease: &Lease) -> Result<crate::tracer::RenderSettings, String> {
-    let settings = render_settings(&lease.params)?;
+    let mut settings = render_settings(&lease.params)?;
+    settings.seed = crate::tracer::sampler::frame_seed(settings.seed, lease.frame);
     let [s0, s1] = lease.samples;
     if s1 <= s0 {
         return Err(format!("empty sample range [{s0}, {s1})"));
@@ -442,13 +398,13 @@ fn check_unit(lease: &Lease) -> Result<crate::tracer::RenderSettings, String> {
 
 /// Uploads one unit's sums, retrying transient failures until the lease's deadline passes (by
 /// then the coordinator has re-issued the unit, and a late result would be stale anyway).
-async fn upload(api: Arc<Api>, lease_id: String, body: Vec<u8>, deadline: Instant) -> Uploaded {
+async fn upload(api: Arc<Api>, lease_id: String, body: Vec<u8>, prepared: Prepared, deadline: Instant) -> Uploaded {
     let id = lease_id.as_str();
     let mut backoff = RETRY;
     let mut failures = 0u32;
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
-        let error = match tokio::time::timeout(left, api.upload(id, body.clone())).await {
+        let error = match tokio::time::timeout(left, api.upload(id, body.clone(), prepared)).await {
             Ok(Ok(UploadAnswer::Merged)) => {
                 debug!(lease = id, bytes = body.len(), "result merged");
                 return Uploaded::Merged;

@@ -16,6 +16,12 @@ const TOKEN: &str = "s3cret";
 const SCENE_ID: &str = "furnace";
 const SLOW_RESULT: Duration = Duration::from_millis(500);
 
+const ANIMATED_ID: &str = "cornell-animated";
+
+fn animated_path() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-animated.gltf")
+}
+
 fn furnace_path() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/furnace.gltf")
 }
@@ -49,6 +55,8 @@ struct Log {
     released: Vec<String>,
     scene_downloads: u32,
     unauthorized: u32,
+    /// (lease id, x-tessera-prepare, x-tessera-prepare-ms) of every result upload.
+    prepared: Vec<(String, String, f64)>,
 }
 
 struct Mock {
@@ -122,6 +130,9 @@ async fn result(State(mock): State<Arc<Mock>>, Path(id): Path<String>, headers: 
     let slow = {
         let mut log = mock.log();
         log.results.push((id.clone(), content_type, body.to_vec(), Instant::now()));
+        let header = |name: &str| headers.get(name).and_then(|v| v.to_str().ok()).unwrap_or("").to_owned();
+        let ms = header("x-tessera-prepare-ms").parse().unwrap_or(f64::NAN);
+        log.prepared.push((id.clone(), header("x-tessera-prepare"), ms));
         log.slow_results.contains(&id)
     };
     if slow {
@@ -146,11 +157,13 @@ async fn release(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Respo
 }
 
 async fn scene(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
-    if id != SCENE_ID {
-        return problem(StatusCode::NOT_FOUND, "no such scene");
-    }
+    let bytes = match id.as_str() {
+        SCENE_ID => mock.scene.clone(),
+        ANIMATED_ID => std::fs::read(animated_path()).unwrap(),
+        _ => return problem(StatusCode::NOT_FOUND, "no such scene"),
+    };
     mock.log().scene_downloads += 1;
-    mock.scene.clone().into_response()
+    bytes.into_response()
 }
 
 async fn serve_on(mock: Arc<Mock>, listener: tokio::net::TcpListener) {
@@ -486,4 +499,40 @@ async fn a_wrong_token_is_an_error() {
     c.token = Some("wrong".into());
     let e = tokio::time::timeout(Duration::from_secs(10), run(c, std::future::pending())).await.unwrap().unwrap_err();
     assert!(e.to_string().contains("missing or wrong token"), "{e}");
+}
+
+/// Frames of an animated scene: the file is downloaded once; a new frame refits the BVH of
+/// the last one, a frame seen before comes from the cache; the upload says which, and every
+/// frame is rendered bit-exactly like the frame alone (with its frame seed).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn frames_of_an_animation_refit_and_report_how_their_scene_was_prepared() {
+    let frame = |id: &str, n: u32| {
+        let Step::Lease(mut l) = small(id, 0, [0, 2]) else { unreachable!() };
+        l.scene_id = ANIMATED_ID.into();
+        l.frame = n;
+        Step::Lease(l)
+    };
+    let mock = Mock::new(3000, vec![frame("f0", 0), frame("f3", 3), frame("f3-again", 3), frame("f1", 1), small("still", 0, [0, 2])]);
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("five results arrive", Duration::from_secs(60), || mock.log().results.len() == 5).await;
+    let (report, _) = worker.stop(Duration::from_secs(10)).await;
+
+    assert_eq!(report.units_done, 5);
+    let log = mock.log();
+    let how: Vec<(&str, &str)> = log.prepared.iter().map(|(id, how, _)| (id.as_str(), how.as_str())).collect();
+    assert_eq!(how, [("f0", "build"), ("f3", "refit"), ("f3-again", "cached"), ("f1", "refit"), ("still", "build")]);
+    for (id, how, ms) in &log.prepared {
+        assert!(if how == "cached" { *ms == 0.0 } else { *ms > 0.0 && ms.is_finite() }, "{id}: {how} in {ms} ms");
+    }
+    assert_eq!(log.scene_downloads, 2, "each file once");
+    let seq = crate::scene::Sequence::parse(&std::fs::read(animated_path()).unwrap(), None).unwrap();
+    for ((id, _, body, _), n) in log.results.iter().zip([0u32, 3, 3, 1]) {
+        let got = PartialSums::decode(body).unwrap();
+        let scene = seq.scene_at(Some(0), f64::from(n) / 24.0).unwrap();
+        let mut settings = render_settings(&params(16, 8)).unwrap();
+        settings.seed = crate::tracer::sampler::frame_seed(settings.seed, n);
+        let expected = render_tile(&scene, &settings, convert::tile(got.tile), 0..2).unwrap();
+        assert_eq!(body, &to_wire(&expected, got.samples).encode(), "{id}");
+    }
 }

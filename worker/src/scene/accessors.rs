@@ -35,6 +35,11 @@ fn check_type(semantic: &gltf::Semantic, a: &gltf::Accessor) -> Result<(), Strin
     if ok { Ok(()) } else { Err(format!("has type {:?} of {:?}, which glTF does not allow for it", a.dimensions(), a.data_type())) }
 }
 
+/// Checks that an accessor's data lies inside its buffers (the message continues "accessor …").
+pub fn check_accessor(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
+    check(a, buffers)
+}
+
 fn check(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
     let count = a.count();
     if count == 0 {

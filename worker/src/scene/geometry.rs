@@ -1,5 +1,6 @@
 //! glTF nodes → world-space triangles, cameras and punctual lights.
 use super::SceneError;
+use super::animation::Pose;
 use crate::tracer::camera::Camera;
 use crate::tracer::light::Light;
 use crate::tracer::scene::Mesh;
@@ -18,7 +19,8 @@ pub struct Parts {
 ///
 /// `max_triangles` is checked from accessor counts before any vertex is read, so a small file
 /// declaring a huge mesh (or instancing one many times) is refused without allocating it.
-pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, max_triangles: u64) -> Result<Parts, SceneError> {
+/// Nodes `pose` drives use its local transform instead of the file's.
+pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, max_triangles: u64, pose: &Pose) -> Result<Parts, SceneError> {
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
@@ -37,7 +39,8 @@ pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, ma
         if std::mem::replace(&mut seen[node.index()], true) {
             return Err(SceneError::new(format!("node {} appears more than once in the scene's node trees (glTF nodes must form disjoint trees)", node.index())));
         }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
+        let local = pose.local(node.index()).unwrap_or_else(|| Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4());
+        let world = parent * local;
         if !world.is_finite() {
             return Err(SceneError::new(format!("node {}: transform is not finite", node.index())));
         }

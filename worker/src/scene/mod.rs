@@ -6,19 +6,28 @@
 //! `KHR_materials_specular`, `KHR_materials_ior`, `KHR_materials_emissive_strength`, base-colour
 //! textures (PNG/JPEG) and the project's `TESSERA_materials_phong`; `KHR_materials_transmission`
 //! and `KHR_materials_volume` (glass, absorption); `alphaMode: MASK`; perspective cameras with an
-//! optional thin lens in `extras`; `KHR_lights_punctual`.
+//! optional thin lens in `extras`; `KHR_lights_punctual`; animations of node translation,
+//! rotation and scale ([`animation`]), played frame by frame through a [`Sequence`] (the file
+//! parsed once; each frame's BVH built, or refitted from another frame's).
 //!
 //! Every error names what is wrong and where ("mesh 3 primitive 0: POSITION accessor count 0").
 //! External files may only be plain relative paths below the scene's own directory.
 mod accessors;
+pub mod animation;
 pub mod effects;
 mod geometry;
 mod materials;
+mod sequence;
 mod uri;
 mod validate;
 
+pub use animation::AnimationInfo;
+pub use sequence::Sequence;
+
 use crate::tracer::Scene;
+use crate::tracer::accel::{Accel, BvhKind};
 use std::path::Path;
+use std::sync::Arc;
 
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 #[error("{0}")]
@@ -54,14 +63,34 @@ pub fn load_bytes(bytes: &[u8], base: Option<&Path>) -> Result<Scene, SceneError
 pub struct Parsed {
     mesh: crate::tracer::scene::Mesh,
     materials: Vec<crate::tracer::material::Material>,
-    textures: Vec<crate::tracer::texture::Texture>,
+    textures: Arc<[crate::tracer::texture::Texture]>,
     cameras: Vec<crate::tracer::camera::Camera>,
     lights: Vec<crate::tracer::light::Light>,
+    animations: Vec<AnimationInfo>,
+    /// A frame of an animation: its BVH keeps what the next frame's refit needs.
+    refittable: bool,
 }
 
 impl Parsed {
     pub fn build(self) -> Scene {
-        Scene::new(self.mesh, self.materials, self.textures, self.cameras, self.lights)
+        let accel = match self.refittable {
+            true => Accel::build_refittable(&self.mesh.positions, BvhKind::Wide),
+            false => Accel::build(&self.mesh.positions, BvhKind::Wide),
+        };
+        self.with_accel(accel)
+    }
+
+    /// The scene, its BVH refitted from `previous` (another frame of the same sequence) when
+    /// that holds the same triangles, else built: see [`Accel::refit`].
+    pub fn build_from(self, previous: &Scene) -> (Scene, Preparation) {
+        match previous.accel.refit(&self.mesh.positions) {
+            Some(accel) => (self.with_accel(accel), Preparation::Refit),
+            None => (self.build(), Preparation::Build),
+        }
+    }
+
+    fn with_accel(self, accel: Accel) -> Scene {
+        Scene::with_accel(self.mesh, self.materials, self.textures, self.cameras, self.lights, accel)
     }
 
     pub fn triangles(&self) -> usize {
@@ -76,12 +105,31 @@ impl Parsed {
     pub fn effects(&self) -> Vec<String> {
         effects::of(&self.mesh, &self.materials, &self.cameras, &self.lights)
     }
+
+    /// The file's animations, in file order (validated: see [`animation`]).
+    pub fn animations(&self) -> Vec<AnimationInfo> {
+        self.animations.clone()
+    }
+}
+
+/// How a frame's BVH was made from the previous frame's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preparation {
+    Build,
+    Refit,
+}
+
+/// The animation a job's `selector` names (a name first, then a decimal index); None selects
+/// the first animation, or none when the scene has none. The error lists the scene's animations.
+pub fn resolve_animation(parsed: &Parsed, selector: Option<&str>) -> Result<Option<usize>, SceneError> {
+    animation::resolve(&parsed.animations, selector)
 }
 
 /// Triangles [`parse`] accepts; a coordinator configures its own limit with [`parse_limited`].
 pub const DEFAULT_MAX_TRIANGLES: u64 = 50_000_000;
 
-/// Parses and validates a glTF document without building acceleration structures.
+/// Parses and validates a glTF document without building acceleration structures. Animated
+/// nodes are in their static (rest) pose; frames come from [`Sequence`].
 pub fn parse(bytes: &[u8], base: Option<&Path>) -> Result<Parsed, SceneError> {
     parse_limited(bytes, base, DEFAULT_MAX_TRIANGLES)
 }
@@ -89,26 +137,7 @@ pub fn parse(bytes: &[u8], base: Option<&Path>) -> Result<Parsed, SceneError> {
 /// [`parse`] refusing scenes of more than `max_triangles` triangles before reading their
 /// vertices (counted from accessor counts, so a "triangle bomb" costs no memory).
 pub fn parse_limited(bytes: &[u8], base: Option<&Path>, max_triangles: u64) -> Result<Parsed, SceneError> {
-    // gltf-json 1.4's validator indexes `accessors[POSITION]` unchecked and panics on an index
-    // out of range: turn that into an error naming the attribute.
-    if bytes.iter().all(u8::is_ascii_whitespace) {
-        return Err(SceneError::new("invalid glTF: the scene is empty"));
-    }
-    validate::glb_container(bytes).map_err(|e| SceneError::new(format!("invalid glTF: {e}")))?;
-    let gltf = std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes))
-        .map_err(|_| SceneError::new(format!("invalid glTF: {}", validate::explain_panic(bytes))))?
-        .map_err(|e| SceneError::new(format!("invalid glTF: {}", e.to_string().trim_start_matches("invalid glTF: "))))?;
-    let doc = gltf.document;
-    let buffers = uri::load_buffers(&doc, base, gltf.blob)?;
-    let textures = materials::load_textures(&doc, base, &buffers)?;
-    let mut materials = materials::load_materials(&doc, textures.len())?;
-    // Defence in depth: accessors are bounds-checked first, but a panic inside the gltf crate on
-    // some input we did not foresee must still become an error, not a crashed worker.
-    let parts = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| geometry::load(&doc, &buffers, materials.len(), max_triangles)))
-        .map_err(|_| SceneError::new("malformed mesh data (the glTF reader failed on it)"))??;
-    // Primitives without a material use glTF's default material, appended last.
-    materials.push(materials::default_material());
-    Ok(Parsed { mesh: parts.mesh, materials, textures, cameras: parts.cameras, lights: parts.lights })
+    Sequence::parse_limited(bytes, base, max_triangles)?.parsed_at(None, 0.0)
 }
 
 /// A short description of a loaded scene.
@@ -135,6 +164,10 @@ mod tests_fuzz;
 mod tests_hostile;
 #[cfg(test)]
 mod tests_effects;
+#[cfg(test)]
+mod tests_animation;
+#[cfg(test)]
+mod tests_sequence;
 
 /// Packs a glTF JSON document and its binary buffer into a `.glb` container (glTF 2.0 §4.4:
 /// 12-byte header, a JSON chunk padded with spaces, a BIN chunk padded with zeros).

@@ -10,6 +10,9 @@
 //!   makes the scene about 2¹² units across, where 1e-4 is below f32 resolution.
 use crate::tracer::ray::{MACHINE_EPSILON, Ray, gamma};
 use glam::{DVec3, Vec3, Vec3A};
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
+use obvhs::ploc::PlocBuilder;
 use obvhs::{BvhBuildParams, bvh2::Bvh2, cwbvh::CwBvh, ray::RayHit, triangle::Triangle};
 use std::time::Duration;
 
@@ -33,6 +36,9 @@ pub struct Accel {
     /// Tree primitive slot → caller's triangle index.
     prim_ids: Vec<u32>,
     scale: f32,
+    /// The binary tree the wide one was converted from, kept by [`Accel::build_refittable`] so
+    /// [`Accel::refit`] can move its boxes instead of building again.
+    refit: Option<refit::RefitBase>,
 }
 
 /// Closest hit: ray parameter and barycentrics (b0 = 1 − b1 − b2) on triangle `prim`.
@@ -50,50 +56,56 @@ impl Accel {
     /// The tree over every non-[degenerate](triangle_normal) triangle: those have no area
     /// f32 can resolve, and rounding in the hit test could only give them false hits.
     pub fn build(tris: &[[Vec3; 3]], kind: BvhKind) -> Accel {
-        let keep: Vec<u32> = (0..tris.len() as u32).filter(|&i| triangle_normal(&tris[i as usize]).is_some()).collect();
+        let mut accel = Accel::build_refittable(tris, kind);
+        accel.refit = None;
+        accel
+    }
+
+    /// [`Accel::build`], keeping what [`Accel::refit`] needs (the binary tree: about 96 bytes
+    /// per triangle more).
+    pub fn build_refittable(tris: &[[Vec3; 3]], kind: BvhKind) -> Accel {
+        let keep = kept(tris);
         let scale = tree_scale(keep.iter().map(|&i| &tris[i as usize]));
         if keep.is_empty() {
-            return Accel { tree: Tree::Empty, verts: Vec::new(), prim_ids: Vec::new(), scale };
+            return Accel { tree: Tree::Empty, verts: Vec::new(), prim_ids: Vec::new(), scale, refit: None };
         }
-        let obvhs_tris: Vec<Triangle> = keep
-            .iter()
-            .map(|&i| &tris[i as usize])
-            .map(|t| Triangle {
-                v0: Vec3A::from(t[0] * scale),
-                v1: Vec3A::from(t[1] * scale),
-                v2: Vec3A::from(t[2] * scale),
-            })
-            .collect();
+        let obvhs_tris = tree_triangles(tris, &keep, scale);
         let params = BvhBuildParams::medium_build();
         let mut build_time = Duration::default();
-        let (tree, prim_ids) = match kind {
+        let (tree, bvh2) = match kind {
             BvhKind::Wide => {
                 // obvhs traverses a wide tree with a fixed 32-entry stack and asserts (debug
                 // builds only) that the tree is shallower; release builds would silently drop
                 // nodes and miss hits. Pathological geometry (found by fuzzing) builds deeper
                 // trees: those get the binary tree, whose traversal stack grows.
-                let build = || obvhs::cwbvh::builder::build_cwbvh_from_tris(&obvhs_tris, params, &mut build_time);
+                let build = || {
+                    let bvh2 = wide_source(&obvhs_tris, params);
+                    (to_wide(&bvh2, params), bvh2)
+                };
                 match std::panic::catch_unwind(std::panic::AssertUnwindSafe(build)) {
-                    Ok(bvh) if wide_depth(&bvh) < WIDE_STACK => {
-                        let ids = bvh.primitive_indices.clone();
-                        (Tree::Wide(bvh), ids)
-                    }
-                    _ => {
-                        let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time);
-                        let ids = bvh.primitive_indices.clone();
-                        (Tree::Binary(bvh), ids)
-                    }
+                    Ok((bvh, bvh2)) if wide_depth(&bvh) < WIDE_STACK => (Tree::Wide(bvh), Some(bvh2)),
+                    _ => (Tree::Binary(obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time)), None),
                 }
             }
-            BvhKind::Binary => {
-                let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time);
-                let ids = bvh.primitive_indices.clone();
-                (Tree::Binary(bvh), ids)
-            }
+            BvhKind::Binary => (Tree::Binary(obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time)), None),
         };
-        let prim_ids: Vec<u32> = prim_ids.iter().map(|&k| keep[k as usize]).collect();
+        let refit = match (&tree, bvh2) {
+            (Tree::Wide(_), Some(bvh2)) => Some(refit::RefitBase { keep: keep.clone(), bvh2 }),
+            (Tree::Binary(b), _) => Some(refit::RefitBase { keep: keep.clone(), bvh2: b.clone() }),
+            _ => None,
+        };
+        Accel::assemble(tree, tris, &keep, scale, refit)
+    }
+
+    fn assemble(tree: Tree, tris: &[[Vec3; 3]], keep: &[u32], scale: f32, refit: Option<refit::RefitBase>) -> Accel {
+        let slots = match &tree {
+            Tree::Wide(b) => &b.primitive_indices,
+            Tree::Binary(b) => &b.primitive_indices,
+            Tree::Empty => return Accel { tree, verts: Vec::new(), prim_ids: Vec::new(), scale, refit: None },
+        };
+        let prim_ids: Vec<u32> = slots.iter().map(|&k| keep[k as usize]).collect();
         let verts = prim_ids.iter().map(|&i| tris[i as usize].map(|v| v * scale)).collect();
-        Accel { tree, verts, prim_ids, scale }
+        Accel { tree, verts, prim_ids, scale, refit }
     }
 
     /// Closest hit with 0 < t < t_max.
@@ -109,9 +121,15 @@ impl Accel {
         let (obvhs_ray, wt) = self.tree_ray(ray, t_max)?;
         let mut best: Option<(u32, f32, f32)> = None;
         let mut closest = |r: &obvhs::ray::Ray, slot: usize| -> f32 {
+            // The test accepts t ≤ tmax, so a tie (a ray through a shared edge) comes here too:
+            // it goes to the smaller triangle index, making the hit independent of the order
+            // in which the tree is walked (a rebuilt and a refitted tree give the same hit).
+            // obvhs itself only records t strictly below tmax; `best` is what counts.
             match intersect_triangle(&wt, &self.verts[slot], r.tmax) {
-                // obvhs accepts only t strictly below tmax; a tie (a shared edge) keeps the first.
-                Some((t, b1, b2)) if t < r.tmax && keep(self.prim_ids[slot], b1, b2) => {
+                Some((t, b1, b2))
+                    if (t < r.tmax || (t == r.tmax && best.is_some_and(|(s, _, _)| self.prim_ids[slot] < self.prim_ids[s as usize])))
+                        && keep(self.prim_ids[slot], b1, b2) =>
+                {
                     best = Some((slot as u32, b1, b2));
                     t
                 }
@@ -127,9 +145,8 @@ impl Accel {
         if !found {
             return None;
         }
-        // The last accepted candidate is the closest: traversal only accepts t below the current tmax.
+        // The last accepted candidate is the closest (t only decreases; ties go to the smaller index).
         let (slot, b1, b2) = best?;
-        debug_assert_eq!(slot, hit.primitive_id);
         Some(Hit { t: hit.t / self.scale, prim: self.prim_ids[slot as usize], b1, b2 })
     }
 
@@ -172,6 +189,37 @@ impl Accel {
         };
         Some((r, WatertightRay::new(origin, ray.dir)))
     }
+}
+
+/// The triangles the tree holds: the non-degenerate ones.
+fn kept(tris: &[[Vec3; 3]]) -> Vec<u32> {
+    (0..tris.len() as u32).filter(|&i| triangle_normal(&tris[i as usize]).is_some()).collect()
+}
+
+/// The caller's triangles `keep`, scaled into tree space, as obvhs triangles.
+fn tree_triangles(tris: &[[Vec3; 3]], keep: &[u32], scale: f32) -> Vec<Triangle> {
+    keep.iter()
+        .map(|&i| &tris[i as usize])
+        .map(|t| Triangle { v0: Vec3A::from(t[0] * scale), v1: Vec3A::from(t[1] * scale), v2: Vec3A::from(t[2] * scale) })
+        .collect()
+}
+
+/// The binary tree obvhs's `build_cwbvh_from_tris` converts (the same steps, without spatial
+/// splits, which `medium_build` does not use), kept for refits.
+fn wide_source(tris: &[Triangle], params: BvhBuildParams) -> Bvh2 {
+    let mut bvh2 = PlocBuilder::with_capacity(tris.len()).build(
+        params.ploc_search_distance,
+        tris,
+        (0..tris.len() as u32).collect::<Vec<_>>(),
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    bvh2
+}
+
+fn to_wide(bvh2: &Bvh2, params: BvhBuildParams) -> CwBvh {
+    bvh2_to_cwbvh(bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false)
 }
 
 /// obvhs's wide-tree traversal stack (`TRAVERSAL_STACK_SIZE`, private there).
@@ -365,6 +413,9 @@ pub(crate) fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(f32, u32)> {
     }
     best
 }
+
+#[path = "accel_refit.rs"]
+mod refit;
 
 #[cfg(test)]
 #[path = "accel_tests.rs"]

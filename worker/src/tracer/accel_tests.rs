@@ -119,3 +119,104 @@ fn tiny_scenes_find_hits_closer_than_obvhs_epsilon() {
     }
 }
 
+
+/// Random triangles: the first `n` in a unit cube, each about 0.1 across.
+fn soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
+    (0..n)
+        .map(|_| {
+            let c = rng.vec();
+            [c, c + rng.vec() * 0.1, c + rng.vec() * 0.1]
+        })
+        .collect()
+}
+
+/// Hits of `rays` random rays, compared bit for bit between a refitted and a rebuilt tree.
+fn assert_same_hits(a: &Accel, b: &Accel, rng: &mut Rng, rays: usize, what: &str) {
+    for k in 0..rays {
+        let o = rng.vec() * 3.0 - Vec3::splat(1.0);
+        let d = (rng.vec() - Vec3::splat(0.5)).normalize_or(Vec3::X);
+        let ray = Ray::new(o, d);
+        assert_eq!(a.intersect(&ray, f32::INFINITY), b.intersect(&ray, f32::INFINITY), "{what}: ray {k}");
+        assert_eq!(a.occluded(&ray, 1.0), b.occluded(&ray, 1.0), "{what}: ray {k}");
+    }
+}
+
+#[test]
+fn a_refitted_tree_gives_the_hits_of_a_rebuilt_one() {
+    let mut rng = Rng(17);
+    let tris = soup(&mut rng, 3000);
+    // Move the triangles a lot: rotate half of them, translate and scale the scene (the tree
+    // space scale changes too), so the old topology fits the new geometry badly.
+    let moved: Vec<[Vec3; 3]> = tris
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let m = if i % 2 == 0 { glam::Mat3::from_rotation_y(1.3) } else { glam::Mat3::IDENTITY };
+            t.map(|v| m * v * 2.5 + Vec3::new(0.3, -0.2, 0.1))
+        })
+        .collect();
+    for kind in [BvhKind::Wide, BvhKind::Binary] {
+        let first = Accel::build_refittable(&tris, kind);
+        let refit = first.refit(&moved).expect("same triangle set: refit");
+        let rebuilt = Accel::build(&moved, kind);
+        assert_same_hits(&refit, &rebuilt, &mut rng, 20_000, &format!("{kind:?}"));
+        // A refit of a refit still works, back to the start.
+        let back = refit.refit(&tris).expect("refit again");
+        assert_same_hits(&back, &Accel::build(&tris, kind), &mut rng, 5000, &format!("{kind:?} back"));
+    }
+    // Exact ties (rays through shared edges of a grid) go to the same triangle in both trees.
+    let g = grid(16);
+    let shifted: Vec<[Vec3; 3]> = g.iter().map(|t| t.map(|v| Vec3::new(v.y, v.x * 0.5, 0.25))).collect();
+    let refit = Accel::build_refittable(&g, BvhKind::Wide).refit(&shifted).unwrap();
+    let rebuilt = Accel::build(&shifted, BvhKind::Wide);
+    for i in 0..=32 {
+        for j in 0..=32 {
+            let target = Vec3::new(i as f32 / 32.0, j as f32 / 64.0, 0.25);
+            let ray = Ray::new(Vec3::new(0.3, 0.2, 2.0), target - Vec3::new(0.3, 0.2, 2.0));
+            assert_eq!(refit.intersect(&ray, f32::INFINITY), rebuilt.intersect(&ray, f32::INFINITY), "edge ray {i},{j}");
+        }
+    }
+}
+
+#[test]
+fn refit_refuses_another_triangle_set() {
+    let mut rng = Rng(3);
+    let tris = soup(&mut rng, 50);
+    assert!(Accel::build(&tris, BvhKind::Wide).refit(&tris).is_none(), "built without refit data");
+    let accel = Accel::build_refittable(&tris, BvhKind::Wide);
+    assert!(accel.refit(&tris[..49]).is_none(), "one triangle fewer");
+    let mut collapsed = tris.clone();
+    collapsed[7] = [Vec3::ZERO; 3]; // degenerate now: left out of the tree
+    assert!(accel.refit(&collapsed).is_none(), "a triangle became degenerate");
+    assert!(accel.refit(&tris).is_some());
+}
+
+/// Benchmark, not a check: BVH build vs refit time (and the refitted tree's traversal speed)
+/// for ~100k moving triangles. Run with
+/// `cargo test -p tessera-worker --lib bvh_build_vs_refit -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn bvh_build_vs_refit() {
+    let mut rng = Rng(99);
+    let tris = soup(&mut rng, 100_000);
+    // The next "frame": every triangle moved a little (a wobble), as animated geometry does.
+    let moved: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|v| v + Vec3::new(0.02 * (v.y * 9.0).sin(), 0.0, 0.01))).collect();
+    let time = |f: &mut dyn FnMut()| {
+        let t0 = std::time::Instant::now();
+        for _ in 0..3 {
+            f();
+        }
+        t0.elapsed().as_secs_f64() * 1e3 / 3.0
+    };
+    let first = Accel::build_refittable(&tris, BvhKind::Wide);
+    let build_ms = time(&mut || drop(Accel::build_refittable(&moved, BvhKind::Wide)));
+    let refit_ms = time(&mut || drop(first.refit(&moved).unwrap()));
+    let (rebuilt, refit) = (Accel::build(&moved, BvhKind::Wide), first.refit(&moved).unwrap());
+    let rays: Vec<Ray> = (0..200_000).map(|_| Ray::new(rng.vec() * 3.0 - Vec3::ONE, (rng.vec() - Vec3::splat(0.5)).normalize_or(Vec3::X))).collect();
+    let trace = |a: &Accel| time(&mut || rays.iter().for_each(|r| {
+        std::hint::black_box(a.intersect(r, f32::INFINITY));
+    }));
+    let (rebuilt_ms, refit_trace_ms) = (trace(&rebuilt), trace(&refit));
+    println!("100k triangles, wide BVH, 1 thread: build {build_ms:.1} ms, refit {refit_ms:.1} ms");
+    println!("200k random rays: rebuilt tree {rebuilt_ms:.1} ms, refitted tree {refit_trace_ms:.1} ms");
+}

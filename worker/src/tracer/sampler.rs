@@ -216,6 +216,14 @@ impl Sampler {
     }
 }
 
+/// The seed of frame `frame` of an animation rendered with job seed `seed`: `seed` itself for
+/// frame 0 (a still renders as before), otherwise a hash of both, so consecutive frames get
+/// decorrelated noise (the same noise pattern frozen on a moving image reads as a dirty lens).
+pub fn frame_seed(seed: u64, frame: u32) -> u64 {
+    if frame == 0 { seed } else { hash2(seed ^ FRAME_SALT, u64::from(frame)) }
+}
+
+const FRAME_SALT: u64 = 0x4652_414d_4553_4545; // "FRAMESEE"
 const PIXEL_SALT: u64 = 0x5445_5353_4552_4131; // "TESSERA1": versions the stream
 const SOBOL_SALT: u64 = 0x736f_626f_6c00_0000; // keeps Sobol seeds apart from Independent
 const GOLDEN_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;

@@ -9,6 +9,7 @@ use crate::tracer::light::Light;
 use crate::tracer::material::Material;
 use crate::tracer::texture::Texture;
 use glam::{Vec2, Vec3};
+use std::sync::Arc;
 
 /// Triangle soup in world space; index `i` in every vector describes triangle `i`.
 #[derive(Clone, Debug, Default)]
@@ -43,7 +44,8 @@ impl Mesh {
 pub struct Scene {
     pub mesh: Mesh,
     pub materials: Vec<Material>,
-    pub textures: Vec<Texture>,
+    /// Shared: the frames of an animation reuse one set of decoded textures.
+    pub textures: Arc<[Texture]>,
     pub cameras: Vec<Camera>,
     /// Area lights (one per emissive triangle of non-zero area) followed by punctual lights.
     pub lights: Vec<Light>,
@@ -79,7 +81,7 @@ impl Scene {
     pub fn new(
         mesh: Mesh,
         materials: Vec<Material>,
-        textures: Vec<Texture>,
+        textures: impl Into<Arc<[Texture]>>,
         cameras: Vec<Camera>,
         punctual: Vec<Light>,
     ) -> Scene {
@@ -89,10 +91,24 @@ impl Scene {
     pub fn with_bvh(
         mesh: Mesh,
         materials: Vec<Material>,
-        textures: Vec<Texture>,
+        textures: impl Into<Arc<[Texture]>>,
         cameras: Vec<Camera>,
         punctual: Vec<Light>,
         kind: BvhKind,
+    ) -> Scene {
+        let accel = Accel::build(&mesh.positions, kind);
+        Scene::with_accel(mesh, materials, textures.into(), cameras, punctual, accel)
+    }
+
+    /// Builds lights around an acceleration structure made for `mesh.positions` (e.g. by
+    /// [`Accel::refit`]).
+    pub fn with_accel(
+        mesh: Mesh,
+        materials: Vec<Material>,
+        textures: Arc<[Texture]>,
+        cameras: Vec<Camera>,
+        punctual: Vec<Light>,
+        accel: Accel,
     ) -> Scene {
         let mut lights = Vec::new();
         let mut tri_light = vec![NO_LIGHT; mesh.len()];
@@ -109,7 +125,6 @@ impl Scene {
         let solid: Vec<[Vec3; 3]> = mesh.positions.iter().filter(|v| triangle_normal(v).is_some()).copied().collect();
         let (bounds_centre, bounds_radius) = bounding_sphere(&solid);
         let face_normals = mesh.positions.iter().map(|v| triangle_normal(v).map_or(Vec3::ZERO, |n| n.as_vec3())).collect();
-        let accel = Accel::build(&mesh.positions, kind);
         let mut used = vec![false; materials.len()];
         mesh.material.iter().for_each(|&m| used[m as usize] = true);
         let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
