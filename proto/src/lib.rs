@@ -20,5 +20,5 @@ mod sums_fuzz;
 pub use job::{FrameRange, FrameStatus, Job, JobList, JobRequest, JobState, Progress, RenderParams, WorkerContribution, WorkerFailures};
 pub use lease::{Heartbeat, Lease, LeaseRequest, Registration, WorkerHello, WorkerInfo};
 pub use problem::Problem;
-pub use scene::{SceneListing, SceneUploaded};
+pub use scene::{SceneAnimation, SceneListing, SceneUploaded};
 pub use sums::{PartialSums, SumsError, TileRect, WirePixel};

@@ -3,17 +3,20 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 /// `201 Created` answer to `POST /v1/scenes`.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct SceneUploaded {
     /// sha256 of the uploaded bytes, lower-case hex.
     pub id: String,
     pub triangles: u64,
     pub effects: Vec<String>,
     pub cameras: Vec<String>,
+    /// The glTF animations a job may play (`"animation"`: a name or an index into this list).
+    #[serde(default)]
+    pub animations: Vec<SceneAnimation>,
 }
 
 /// One entry of `GET /v1/scenes`.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct SceneListing {
     /// sha256 of the scene bytes.
     pub id: String,
@@ -22,4 +25,15 @@ pub struct SceneListing {
     pub triangles: u64,
     pub effects: Vec<String>,
     pub cameras: Vec<String>,
+    /// The glTF animations a job may play (`"animation"`: a name or an index into this list).
+    #[serde(default)]
+    pub animations: Vec<SceneAnimation>,
+}
+
+/// One glTF animation of a scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct SceneAnimation {
+    pub name: Option<String>,
+    /// Time of its last keyframe, in seconds.
+    pub duration_s: f64,
 }

@@ -7,13 +7,15 @@ use sha2::{Digest, Sha256};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::RwLock;
+use tessera_proto::SceneAnimation;
 
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SceneMeta {
     pub id: String,
     pub triangles: u64,
     pub effects: Vec<String>,
     pub cameras: Vec<String>,
+    pub animations: Vec<SceneAnimation>,
 }
 
 pub struct SceneStore {
@@ -69,7 +71,8 @@ impl SceneStore {
         if triangles == 0 {
             return Err("the scene has no triangles".into());
         }
-        let meta = SceneMeta { id: id.clone(), triangles, effects: parsed.effects(), cameras: parsed.cameras() };
+        let animations = parsed.animations().into_iter().map(|a| SceneAnimation { name: a.name, duration_s: a.duration_s }).collect();
+        let meta = SceneMeta { id: id.clone(), triangles, effects: parsed.effects(), cameras: parsed.cameras(), animations };
         write_atomically(&self.dir.join(&id), bytes).map_err(|e| format!("storing the scene failed: {e}"))?;
         self.meta.write().expect("lock").insert(id, meta.clone());
         Ok(meta)

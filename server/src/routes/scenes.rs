@@ -21,7 +21,7 @@ pub async fn upload(State(st): State<AppState>, headers: HeaderMap, body: Bytes)
         .await
         .map_err(AppError::internal)?
         .map_err(|e| AppError::new(StatusCode::UNPROCESSABLE_ENTITY, e))?;
-    let body = SceneUploaded { id: meta.id.clone(), triangles: meta.triangles, effects: meta.effects, cameras: meta.cameras };
+    let body = SceneUploaded { id: meta.id.clone(), triangles: meta.triangles, effects: meta.effects, cameras: meta.cameras, animations: meta.animations };
     Ok((StatusCode::CREATED, [(header::LOCATION, format!("/v1/scenes/{}", meta.id))], axum::Json(body)))
 }
 
@@ -29,7 +29,7 @@ pub async fn upload(State(st): State<AppState>, headers: HeaderMap, body: Bytes)
 #[utoipa::path(get, path = "/v1/scenes", tag = "scenes", responses((status = 200, body = Vec<SceneListing>)))]
 pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<SceneListing>> {
     let all = st.scenes.list().into_iter();
-    axum::Json(all.map(|(name, m)| SceneListing { id: m.id, name, triangles: m.triangles, effects: m.effects, cameras: m.cameras }).collect())
+    axum::Json(all.map(|(name, m)| SceneListing { id: m.id, name, triangles: m.triangles, effects: m.effects, cameras: m.cameras, animations: m.animations }).collect())
 }
 
 /// A stored scene's description (by id or bundled name).
@@ -37,7 +37,7 @@ pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<SceneListing>> {
     responses((status = 200, body = SceneUploaded), (status = 404, body = Problem)))]
 pub async fn describe(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<SceneUploaded>, AppError> {
     let m = st.scenes.resolve(&id).ok_or_else(|| AppError::not_found(format!("no scene {id:?}")))?;
-    Ok(axum::Json(SceneUploaded { id: m.id, triangles: m.triangles, effects: m.effects, cameras: m.cameras }))
+    Ok(axum::Json(SceneUploaded { id: m.id, triangles: m.triangles, effects: m.effects, cameras: m.cameras, animations: m.animations }))
 }
 
 /// The scene's bytes, for workers.

@@ -111,6 +111,8 @@ fn job_cases() -> Vec<Case> {
         case("frames step 0", post(), JSON, job(json!({"frames": {"start": 0, "end": 2, "step": 0}})), S::BAD_REQUEST, "frames.step must be ≥ 1"),
         case("frames fps 0", post(), JSON, job(json!({"frames": {"start": 0, "end": 2, "fps": 0.0}})), S::BAD_REQUEST, "frames.fps must be in (0, 1000]"),
         case("too many frames", post(), JSON, job(json!({"frames": {"start": 0, "end": 4_000_000}})), S::BAD_REQUEST, "split the range into several jobs"),
+        case("frames of a still scene", post(), JSON, job(json!({"frames": {"start": 0, "end": 2}})), S::BAD_REQUEST, "the scene has no animation"),
+        case("unknown animation", post(), JSON, job(json!({"animation": "walk"})), S::BAD_REQUEST, "no animation \"walk\" (the scene has no animations)"),
         case("frames unknown field", post(), JSON, job(json!({"frames": {"start": 0, "end": 2, "stop": 3}})), S::BAD_REQUEST, "unknown field `stop`"),
         case("unknown scene", post(), JSON, job(json!({"scene": "no-such-scene"})), S::BAD_REQUEST, "\"no-such-scene\""),
         case("job as text/plain", post(), "text/plain", job(json!({})), S::UNSUPPORTED_MEDIA_TYPE, "application/json"),

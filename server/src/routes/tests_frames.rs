@@ -5,7 +5,8 @@ use serde_json::json;
 
 /// Three frames (4, 6, 8) of 8×8 pixels, one tile, 2 spp in one batch: one unit per frame.
 fn three_frames() -> serde_json::Value {
-    job_body(json!({"width": 8, "height": 8, "spp": 2, "tile_size": 8, "batch_spp": 2, "frames": {"start": 4, "end": 8, "step": 2, "fps": 2.0}}))
+    let frames = json!({"start": 4, "end": 8, "step": 2, "fps": 2.0});
+    job_body(json!({"scene": "cornell-animated", "width": 8, "height": 8, "spp": 2, "tile_size": 8, "batch_spp": 2, "frames": frames}))
 }
 
 #[tokio::test]

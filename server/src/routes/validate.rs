@@ -47,6 +47,7 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
     let sampler: SamplerKind =
         req.sampler.as_deref().unwrap_or("sobol").parse().map_err(|e: tessera_worker::tracer::sampler::UnknownSamplerKind| AppError::field("sampler", e.to_string()))?;
     let (frames, fps) = frames(req.frames.as_ref(), width as u64 * height as u64)?;
+    check_animation(req.animation.as_deref(), &frames, scene)?;
     let tile_size = in_range("tile_size", req.tile_size.unwrap_or(64), 8, 1024)?;
     let batch_spp = in_range("batch_spp", req.batch_spp.unwrap_or(16), 1, 4096)?;
     let max_depth = in_range("max_depth", req.max_depth.unwrap_or(1024), 1, 65536)?;
@@ -118,4 +119,21 @@ fn frames(range: Option<&FrameRange>, pixels: u64) -> Result<(Vec<u32>, f64), Ap
         ));
     }
     Ok(((r.start..=r.end).step_by(step as usize).collect(), fps))
+}
+
+/// The animation a job names must exist (by name, else by index); several frames need one.
+fn check_animation(selector: Option<&str>, frames: &[u32], scene: &SceneMeta) -> Result<(), AppError> {
+    let anims = &scene.animations;
+    let has = |s: &str| anims.iter().any(|a| a.name.as_deref() == Some(s)) || s.parse::<usize>().is_ok_and(|i| i < anims.len());
+    if let Some(s) = selector
+        && !has(s)
+    {
+        let list: Vec<String> = anims.iter().enumerate().map(|(i, a)| a.name.clone().unwrap_or_else(|| format!("{i} (unnamed)"))).collect();
+        let have = if list.is_empty() { "the scene has no animations".to_string() } else { format!("the scene has: {}", list.join(", ")) };
+        return Err(AppError::field("animation", format!("no animation {s:?} ({have})")));
+    }
+    if frames.len() > 1 && anims.is_empty() {
+        return Err(AppError::field("frames", "the scene has no animation: every frame would show the same pose (render one frame)"));
+    }
+    Ok(())
 }
