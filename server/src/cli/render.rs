@@ -52,7 +52,7 @@ async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> 
     let samples = job.progress.samples_done * (a.job.width as f64 * a.job.height as f64) * job.frames.len().max(1) as f64;
     println!(
         "{}: {}x{} at {:.0} spp in {:.2} s ({:.0} samples/s); estimated relMSE {:.3e}; dropped {} non-finite samples; max sample weight {:.3}; effects: {}",
-        files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>().join(", "),
+        files_label(&files),
         a.job.width,
         a.job.height,
         job.progress.samples_done,
@@ -64,4 +64,13 @@ async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> 
         job.effects.join(", ")
     );
     Ok(())
+}
+
+/// `out.exr`, or `out_0000.exr … out_0047.exr (48 frames)`.
+fn files_label(files: &[PathBuf]) -> String {
+    match files {
+        [one] => one.display().to_string(),
+        [first, .., last] => format!("{} … {} ({} frames)", first.display(), last.display(), files.len()),
+        [] => String::new(),
+    }
 }
