@@ -1,4 +1,4 @@
-//! A farm in one process: a coordinator on a loopback port and one worker using all cores,
+//! A farm in one process: a coordinator on a loopback port and one worker using all cores (or several),
 //! talking the same HTTP protocol as a real farm (used by `tessera render` and the benchmarks).
 use crate::client::Coordinator;
 use crate::state::{AppState, Config};
@@ -11,6 +11,15 @@ where
     F: FnOnce(Coordinator) -> Fut,
     Fut: std::future::Future<Output = anyhow::Result<T>>,
 {
+    with_local_workers(data, &[threads], f).await
+}
+
+/// As [`with_local_farm`] with one worker per entry of `threads` (its thread count; 0 = all cores).
+pub async fn with_local_workers<T, F, Fut>(data: &Path, threads: &[usize], f: F) -> anyhow::Result<T>
+where
+    F: FnOnce(Coordinator) -> Fut,
+    Fut: std::future::Future<Output = anyhow::Result<T>>,
+{
     // The farm lives and dies with this process: nothing to resume, so no checkpoints.
     let state = AppState::new(Config { checkpoint_ms: None, ..Config::new(data.to_path_buf()) })?;
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
@@ -19,15 +28,25 @@ where
     let server = tokio::spawn(crate::app::run(listener, state, async {
         let _ = server_stopped.await;
     }));
-    let (stop_worker, worker_stopped) = tokio::sync::oneshot::channel::<()>();
-    let config = WorkerConfig { coordinator: url.clone(), token: None, threads, name: "local".into() };
-    let worker = tokio::spawn(tessera_worker::client::run(config, async {
-        let _ = worker_stopped.await;
-    }));
+    let (stop_workers, _) = tokio::sync::broadcast::channel::<()>(1);
+    let workers: Vec<_> = threads
+        .iter()
+        .enumerate()
+        .map(|(i, &threads)| {
+            let name = if i == 0 { "local".to_string() } else { format!("local-{i}") };
+            let config = WorkerConfig { coordinator: url.clone(), token: None, threads, name };
+            let mut stopped = stop_workers.subscribe();
+            tokio::spawn(tessera_worker::client::run(config, async move {
+                let _ = stopped.recv().await;
+            }))
+        })
+        .collect();
     // Loopback polls are cheap: poll often so the job's end is noticed within milliseconds.
     let outcome = f(Coordinator::new(&url, None).polling_every(std::time::Duration::from_millis(50))).await;
-    let _ = stop_worker.send(());
-    let _ = worker.await;
+    let _ = stop_workers.send(());
+    for worker in workers {
+        let _ = worker.await;
+    }
     let _ = stop_server.send(());
     let _ = server.await;
     outcome

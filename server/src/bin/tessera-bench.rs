@@ -6,6 +6,9 @@
 //!                              results instantly; prints unit round trips per second and merge cost.
 //! `tessera-bench effects`    — the tracer alone on one scene with the gated kernel, the matte
 //!                              kernel (Lambert + lights only) and every effect forced on.
+//! `tessera-bench accuracy`   — the accuracy study (issue #10): relMSE vs time per scene, estimator,
+//!                              sampler and roulette, plus tile/batch sizes through a local farm;
+//!                              writes docs/accuracy/ (tessera_server::bench::accuracy).
 use clap::{Parser, Subcommand};
 use std::time::{Duration, Instant};
 use tessera_proto::{JobRequest, PartialSums, TileRect, WirePixel};
@@ -49,6 +52,10 @@ enum Cmd {
         #[arg(long, default_value_t = 7)]
         repeats: u32,
     },
+    /// The accuracy study: relMSE vs render time for every estimator × sampler × roulette on the
+    /// study's scenes, and time to a noise target vs tile and batch size through a local farm.
+    /// Writes a markdown report and one SVG plot per scene.
+    Accuracy(tessera_server::bench::accuracy::Options),
     /// Unit round trips per second through a one-core coordinator.
     Roundtrips {
         #[arg(long, default_value_t = 5.0)]
@@ -66,6 +73,7 @@ fn main() -> anyhow::Result<()> {
         Cmd::Overhead { scene, size, spp, repeats, batch_spp } => overhead(&scene, size, spp, repeats, batch_spp),
         Cmd::Roundtrips { seconds, workers, tile } => roundtrips(seconds, workers, tile),
         Cmd::Effects { scene, size, spp, repeats } => effects(&scene, size, spp, repeats),
+        Cmd::Accuracy(options) => tessera_server::bench::accuracy::run(options).map(|_| ()),
     }
 }
 
