@@ -80,18 +80,24 @@ fn reach(r: Reach) -> String {
 }
 
 /// Per scene, within each sampler × roulette group: efficiency of mis over the best other
-/// estimator and over naive, and whether naive is the least efficient.
+/// estimator and over naive, and whether naive is the least efficient. Efficiencies are compared
+/// at the largest spp all four reached, so that where a curve's ladder happened to stop does not
+/// decide the comparison.
 fn comparison(scenes: &[SceneResult]) -> String {
     let mut s = String::from(
         "## Estimators compared\n\nEfficiency ratios within each sampler × Russian-roulette group (4 groups per scene), \
-         smallest and largest over the groups. `mis ÷ best other` ≥ 1 means mis is the most efficient.\n\n\
+         read at the largest spp all four estimators of the group reached; smallest and largest over the groups. \
+         `mis ÷ best other` ≥ 1 means mis is the most efficient.\n\n\
          | scene | mis ÷ best other | best other where mis loses | mis ÷ naive | naive least efficient in |\n|---|---:|---|---:|---:|\n",
     );
     for scene in scenes {
         let groups = groups(&scene.curves);
         let (mut vs_best, mut vs_naive, mut naive_last, mut losers) = (Vec::new(), Vec::new(), 0, Vec::new());
         for g in &groups {
-            let eff = |e: Estimator| g.iter().find(|(c, _)| c.estimator == e).map_or(0.0, |(_, p)| stats::efficiency(p));
+            let common = g.iter().map(|(_, p)| p.last().map_or(0, |p| p.spp)).min().unwrap_or(0);
+            let eff = |e: Estimator| {
+                g.iter().find(|(c, _)| c.estimator == e).and_then(|(_, p)| p.iter().find(|p| p.spp == common)).map_or(0.0, |p| 1.0 / (p.rel_mse * p.time_s).max(f64::MIN_POSITIVE))
+            };
             let (best_other, who) = [Estimator::Light, Estimator::Bsdf, Estimator::Naive]
                 .into_iter()
                 .map(|e| (eff(e), e))
@@ -101,7 +107,7 @@ fn comparison(scenes: &[SceneResult]) -> String {
             vs_naive.push(mis / eff(Estimator::Naive));
             if mis < best_other {
                 let c = g[0].0;
-                losers.push(format!("{} ({}, RR {})", who.name(), c.sampler.name(), if c.roulette { "on" } else { "off" }));
+                losers.push(format!("{} ({}, RR {}: {:.2}×)", who.name(), c.sampler.name(), if c.roulette { "on" } else { "off" }, mis / best_other));
             }
             if Estimator::ALL.into_iter().filter(|e| *e != Estimator::Naive).all(|e| eff(e) >= eff(Estimator::Naive)) {
                 naive_last += 1;
@@ -136,7 +142,7 @@ fn range(v: &[f64]) -> String {
     if !lo.is_finite() {
         return "—".into();
     }
-    format!("{lo:.2}× … {hi:.2}×")
+    format!("{lo:.3}× … {hi:.3}×")
 }
 
 fn farm_table(study: &Study) -> String {
