@@ -532,6 +532,36 @@ def scene_cornell_box() -> dict:
     return g.finish()
 
 
+# The small-light Cornell box: the same room with the light shrunk to 3 cm x 3 cm at the
+# centre of the original one; its radiance grows by the area ratio so the light's power (and
+# the image's brightness) stays the same. Light sampling finds it; BSDF sampling rarely does.
+CORNELL_SMALL_LIGHT_HALF_MM = 15.0
+
+
+def scene_cornell_small_light() -> dict:
+    g = Gltf("Cornell box with a 3 cm light")
+    big = [(343.0, 227.0), (213.0, 332.0)]  # (x, z) corners of the original light, mm
+    cx, cz = (big[0][0] + big[1][0]) / 2.0, (big[0][1] + big[1][1]) / 2.0
+    h = CORNELL_SMALL_LIGHT_HALF_MM
+    area_ratio = (130.0 * 105.0) / (2.0 * h) ** 2
+    mats = {}
+    for name, m in CORNELL_MATERIALS.items():
+        if m["radiance"] is None:
+            mats[name] = g.material(lambert(name, m["albedo"]))
+        else:
+            e, s = radiance_to_emissive(tuple(c * area_ratio for c in m["radiance"]))
+            mats[name] = g.material(lambert(name, m["albedo"], e, s))
+    for obj in cornell_box_objects():
+        tris = obj["triangles"]
+        if obj["name"] == "light":
+            y = CORNELL_LIGHT_Y_MM / 1000.0
+            tris = rect_y((cx - h) / 1000.0, (cx + h) / 1000.0, (cz - h) / 1000.0, (cz + h) / 1000.0, y, False)
+        g.node(obj["name"], mesh=g.flat_mesh(obj["name"], tris, mats[obj["material"]]))
+    c = CORNELL_CAMERA
+    g.camera(c["name"], math.radians(c["yfov_deg"]), c["position"], rotation=c["rotation"])
+    return g.finish()
+
+
 def scene_furnace() -> dict:
     g = Gltf("White furnace")
     m = g.material(lambert("furnace_grey", (0.8, 0.8, 0.8), emissive=(0.1, 0.1, 0.1)))
@@ -805,6 +835,7 @@ SCENES = {
     "glass.gltf": scene_glass,
     "cornell-box.gltf": scene_cornell_box,
     "cornell-animated.gltf": scene_cornell_animated,
+    "cornell-small-light.gltf": scene_cornell_small_light,
     "furnace.gltf": scene_furnace,
     "glossy.gltf": scene_glossy,
     "phong.gltf": scene_phong,

@@ -8,6 +8,7 @@ pub const SCENES: &[(&str, &[u8])] = &[
     ("alpha-mask", include_bytes!("../../scenes/alpha-mask.gltf")),
     ("cornell-animated", include_bytes!("../../scenes/cornell-animated.gltf")),
     ("cornell-box", include_bytes!("../../scenes/cornell-box.gltf")),
+    ("cornell-small-light", include_bytes!("../../scenes/cornell-small-light.gltf")),
     ("depth-of-field", include_bytes!("../../scenes/depth-of-field.gltf")),
     ("furnace", include_bytes!("../../scenes/furnace.gltf")),
     ("glass", include_bytes!("../../scenes/glass.gltf")),

@@ -1,5 +1,6 @@
 //! A small HTTP client for the coordinator's client API (used by `submit` and `render`).
 use anyhow::{Context, bail};
+use std::path::Path;
 use std::time::Duration;
 use tessera_proto::{Job, JobRequest, Problem, SceneUploaded};
 
@@ -92,3 +93,15 @@ pub fn progress_line(job: &Job) -> String {
     let eta = job.eta_s.map_or("-".into(), |e| format!("{e:.1}s"));
     format!("{:.1}/{} spp, noise {noise}, {:.0} samples/s, eta {eta}, {} workers", job.progress.samples_done, job.progress.samples_target, job.samples_per_s, job.workers)
 }
+
+/// Uploads a scene file, or passes a name/id through.
+pub async fn scene_ref(c: &Coordinator, scene: &str) -> anyhow::Result<String> {
+    let path = Path::new(scene);
+    if !path.is_file() {
+        return Ok(scene.to_string());
+    }
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let binary = bytes.starts_with(b"glTF");
+    Ok(c.upload_scene(bytes, binary).await?.id)
+}
+

@@ -8,11 +8,13 @@
 //! - [`client`]: a small client of the coordinator's API.
 //! - [`scheduler`]: the clock-free state machine of jobs, units, leases and workers.
 //! - [`store`], [`persist`]: durable job state (redb + checkpoint files) and resuming from it.
+//! - [`bench`]: benchmark studies (the accuracy study of issue #10) shared by `tessera-bench` and tests.
 //! - [`dashboard`]: the web dashboard at `/` (static files compiled in).
 //! - [`app`], [`routes`], [`state`], [`status`], [`error`], [`scenes`]: the axum coordinator —
 //!   `app(state) -> Router`, handlers grouped by resource, problem+json errors, the scene store.
 pub mod app;
 pub mod auth;
+pub mod bench;
 pub mod bundled;
 pub mod client;
 pub mod dashboard;

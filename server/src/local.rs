@@ -8,16 +8,15 @@ use tessera_worker::client::WorkerConfig;
 /// The shape of a local farm.
 #[derive(Clone, Debug)]
 pub struct LocalFarm {
-    /// Worker processes (as tasks); each renders one unit at a time.
-    pub workers: usize,
-    /// Render threads per worker (0: all cores).
-    pub threads: usize,
+    /// One worker per entry: its render threads (0: all cores). Each renders one unit at a time.
+    pub worker_threads: Vec<usize>,
+    /// See `scheduler::frames`.
     pub frame_affinity: bool,
 }
 
 impl Default for LocalFarm {
     fn default() -> LocalFarm {
-        LocalFarm { workers: 1, threads: 0, frame_affinity: true }
+        LocalFarm { worker_threads: vec![0], frame_affinity: true }
     }
 }
 
@@ -28,10 +27,20 @@ where
     F: FnOnce(Coordinator) -> Fut,
     Fut: std::future::Future<Output = anyhow::Result<T>>,
 {
-    with_farm(data, LocalFarm { threads, ..LocalFarm::default() }, f).await
+    with_local_workers(data, &[threads], f).await
 }
 
-/// As [`with_local_farm`], with any number of workers.
+/// As [`with_local_farm`] with one worker per entry of `threads` (its thread count; 0 = all cores).
+pub async fn with_local_workers<T, F, Fut>(data: &Path, threads: &[usize], f: F) -> anyhow::Result<T>
+where
+    F: FnOnce(Coordinator) -> Fut,
+    Fut: std::future::Future<Output = anyhow::Result<T>>,
+{
+    with_farm(data, LocalFarm { worker_threads: threads.to_vec(), ..LocalFarm::default() }, f).await
+}
+
+/// Starts the coordinator and workers `farm` describes, runs `f` against the coordinator, then
+/// stops them.
 pub async fn with_farm<T, F, Fut>(data: &Path, farm: LocalFarm, f: F) -> anyhow::Result<T>
 where
     F: FnOnce(Coordinator) -> Fut,
@@ -46,24 +55,25 @@ where
     let server = tokio::spawn(crate::app::run(listener, state, async {
         let _ = server_stopped.await;
     }));
-    let mut workers = Vec::new();
-    for i in 0..farm.workers.max(1) {
-        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-        let name = if farm.workers > 1 { format!("local-{}", i + 1) } else { "local".into() };
-        let config = WorkerConfig { coordinator: url.clone(), token: None, threads: farm.threads, name };
-        let task = tokio::spawn(tessera_worker::client::run(config, async {
-            let _ = stopped.await;
-        }));
-        workers.push((stop, task));
-    }
+    let (stop_workers, _) = tokio::sync::broadcast::channel::<()>(1);
+    let workers: Vec<_> = farm
+        .worker_threads
+        .iter()
+        .enumerate()
+        .map(|(i, &threads)| {
+            let name = if i == 0 { "local".to_string() } else { format!("local-{i}") };
+            let config = WorkerConfig { coordinator: url.clone(), token: None, threads, name };
+            let mut stopped = stop_workers.subscribe();
+            tokio::spawn(tessera_worker::client::run(config, async move {
+                let _ = stopped.recv().await;
+            }))
+        })
+        .collect();
     // Loopback polls are cheap: poll often so the job's end is noticed within milliseconds.
     let outcome = f(Coordinator::new(&url, None).polling_every(std::time::Duration::from_millis(50))).await;
-    let (stops, tasks): (Vec<_>, Vec<_>) = workers.into_iter().unzip();
-    for stop in stops {
-        let _ = stop.send(());
-    }
-    for task in tasks {
-        let _ = task.await;
+    let _ = stop_workers.send(());
+    for worker in workers {
+        let _ = worker.await;
     }
     let _ = stop_server.send(());
     let _ = server.await;

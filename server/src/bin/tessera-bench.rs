@@ -6,6 +6,11 @@
 //!                              results instantly; prints unit round trips per second and merge cost.
 //! `tessera-bench effects`    — the tracer alone on one scene with the gated kernel, the matte
 //!                              kernel (Lambert + lights only) and every effect forced on.
+//! `tessera-bench accuracy`   — the accuracy study (issue #10): relMSE vs time per scene, estimator,
+//!                              sampler and roulette, plus tile/batch sizes through a local farm;
+//!                              writes docs/accuracy/ (tessera_server::bench::accuracy).
+//! `tessera-bench frames`     — an animation job on local workers with frame affinity on and off:
+//!                              time per frame and the scene builds/refits workers reported.
 use clap::{Parser, Subcommand};
 use std::time::{Duration, Instant};
 use tessera_proto::{JobRequest, PartialSums, TileRect, WirePixel};
@@ -49,6 +54,12 @@ enum Cmd {
         #[arg(long, default_value_t = 7)]
         repeats: u32,
     },
+    /// The accuracy study: relMSE vs render time for every estimator × sampler × roulette on the
+    /// study's scenes, and time to a noise target vs tile and batch size through a local farm.
+    /// Writes a markdown report and one SVG plot per scene.
+    Accuracy(tessera_server::bench::accuracy::Options),
+    /// An animation job (frames 0..N−1) on local workers with frame affinity on and off.
+    Frames(tessera_server::bench::frames::FramesBench),
     /// Unit round trips per second through a one-core coordinator.
     Roundtrips {
         #[arg(long, default_value_t = 5.0)]
@@ -66,6 +77,8 @@ fn main() -> anyhow::Result<()> {
         Cmd::Overhead { scene, size, spp, repeats, batch_spp } => overhead(&scene, size, spp, repeats, batch_spp),
         Cmd::Roundtrips { seconds, workers, tile } => roundtrips(seconds, workers, tile),
         Cmd::Effects { scene, size, spp, repeats } => effects(&scene, size, spp, repeats),
+        Cmd::Accuracy(options) => tessera_server::bench::accuracy::run(options).map(|_| ()),
+        Cmd::Frames(b) => tessera_server::bench::frames::run(&b),
     }
 }
 

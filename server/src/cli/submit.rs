@@ -5,6 +5,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use tessera_proto::{Job, JobState};
+pub use tessera_server::client::scene_ref;
 use tessera_server::client::{Coordinator, progress_line};
 
 #[derive(Args)]
@@ -45,17 +46,6 @@ pub fn run(a: SubmitArgs) -> anyhow::Result<()> {
         }
         Ok(())
     })
-}
-
-/// Uploads a scene file, or passes a name/id through.
-pub async fn scene_ref(c: &Coordinator, scene: &str) -> anyhow::Result<String> {
-    let path = Path::new(scene);
-    if !path.is_file() {
-        return Ok(scene.to_string());
-    }
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    let binary = bytes.starts_with(b"glTF");
-    Ok(c.upload_scene(bytes, binary).await?.id)
 }
 
 /// Follows a job to its end with a progress bar; errors if it failed or was canceled.

@@ -1,0 +1,104 @@
+//! `tessera-bench frames`: an animation job on a local farm with frame affinity on and off.
+//!
+//! Both runs render the same frames through a coordinator and `--workers` worker tasks on
+//! loopback; they alternate `--repeats` times and the fastest of each is reported, with the
+//! scene preparations the workers reported (full builds, refits, their milliseconds). Affinity
+//! off hands out units in plain frame order, so every worker prepares every frame.
+use crate::client::Coordinator;
+use crate::local::{LocalFarm, with_farm};
+use std::time::Instant;
+use tessera_proto::{FrameRange, Job, JobRequest, JobState};
+
+/// What one run measured.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FramesRun {
+    pub seconds: f64,
+    pub builds: u32,
+    pub refits: u32,
+    pub prepare_ms: f64,
+}
+
+#[derive(Clone, Debug, clap::Args)]
+pub struct FramesBench {
+    /// An animated bundled scene or a .gltf/.glb file.
+    #[arg(long, default_value = "cornell-animated")]
+    pub scene: String,
+    /// Frame width and height in pixels.
+    #[arg(long, default_value_t = 128)]
+    pub size: u32,
+    /// Samples per pixel of every frame.
+    #[arg(long, default_value_t = 32)]
+    pub spp: u32,
+    /// Frames 0..N−1 of the scene's first animation.
+    #[arg(long, default_value_t = 8)]
+    pub frames: u32,
+    /// Local workers, one render thread each.
+    #[arg(long, default_value_t = 3)]
+    pub workers: usize,
+    /// Alternating runs with affinity on and off; the fastest of each is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeats: u32,
+}
+
+pub fn run(b: &FramesBench) -> anyhow::Result<()> {
+    let rt = tokio::runtime::Runtime::new()?;
+    let (mut on, mut off) = (FramesRun { seconds: f64::INFINITY, ..FramesRun::default() }, FramesRun { seconds: f64::INFINITY, ..FramesRun::default() });
+    for _ in 0..b.repeats.max(1) {
+        for affinity in [true, false] {
+            let r = rt.block_on(once(b, affinity))?;
+            let best = if affinity { &mut on } else { &mut off };
+            if r.seconds < best.seconds {
+                *best = r;
+            }
+        }
+    }
+    println!(
+        "{} frames of {} at {}×{}, {} spp, {} local workers (1 thread each), fastest of {}:",
+        b.frames, b.scene, b.size, b.size, b.spp, b.workers, b.repeats
+    );
+    for (name, r) in [("affinity on ", on), ("affinity off", off)] {
+        println!(
+            "  {name}: {:.2} s ({:.3} s per frame); scene preparations: {} builds + {} refits = {:.1} ms",
+            r.seconds,
+            r.seconds / b.frames as f64,
+            r.builds,
+            r.refits,
+            r.prepare_ms
+        );
+    }
+    println!("  off/on time ratio: {:.3}", off.seconds / on.seconds);
+    Ok(())
+}
+
+async fn once(b: &FramesBench, affinity: bool) -> anyhow::Result<FramesRun> {
+    let scene = b.scene.clone();
+    let data = std::env::temp_dir().join(format!("tessera-bench-frames-{}-{affinity}", std::process::id()));
+    let farm = LocalFarm { worker_threads: vec![1; b.workers], frame_affinity: affinity };
+    let mut request = JobRequest {
+        scene: String::new(),
+        width: b.size,
+        height: b.size,
+        spp: Some(b.spp),
+        tile_size: Some(32),
+        batch_spp: Some(16.min(b.spp)),
+        frames: Some(FrameRange { start: 0, end: b.frames.max(1) - 1, step: None, fps: None }),
+        ..JobRequest::default()
+    };
+    let out = with_farm(&data, farm, |c: Coordinator| async move {
+        let t0 = Instant::now();
+        request.scene = crate::client::scene_ref(&c, &scene).await?;
+        let job = c.submit(&request).await?;
+        let job: Job = c.wait(&job.id, |_| {}).await?;
+        anyhow::ensure!(job.state == JobState::Done, "job ended {:?}: {:?}", job.state, job.message);
+        Ok((t0.elapsed().as_secs_f64(), job))
+    })
+    .await;
+    let _ = std::fs::remove_dir_all(&data);
+    let (seconds, job) = out?;
+    Ok(FramesRun {
+        seconds,
+        builds: job.frames.iter().map(|f| f.builds).sum(),
+        refits: job.frames.iter().map(|f| f.refits).sum(),
+        prepare_ms: job.frames.iter().map(|f| f.prepare_ms).sum(),
+    })
+}
