@@ -14,6 +14,7 @@ mod accessors;
 pub mod effects;
 mod geometry;
 mod materials;
+mod textures;
 mod uri;
 mod validate;
 
@@ -100,8 +101,9 @@ pub fn parse_limited(bytes: &[u8], base: Option<&Path>, max_triangles: u64) -> R
         .map_err(|e| SceneError::new(format!("invalid glTF: {}", e.to_string().trim_start_matches("invalid glTF: "))))?;
     let doc = gltf.document;
     let buffers = uri::load_buffers(&doc, base, gltf.blob)?;
-    let textures = materials::load_textures(&doc, base, &buffers)?;
-    let mut materials = materials::load_materials(&doc, textures.len())?;
+    let mut pool = textures::TexturePool::load(&doc, base, &buffers)?;
+    let mut materials = materials::load_materials(&doc, &mut pool)?;
+    let textures = pool.finish();
     // Defence in depth: accessors are bounds-checked first, but a panic inside the gltf crate on
     // some input we did not foresee must still become an error, not a crashed worker.
     let parts = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| geometry::load(&doc, &buffers, materials.len(), max_triangles)))
