@@ -221,3 +221,7 @@ macro_rules! dispatch_kernel {
 #[cfg(test)]
 #[path = "effects_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "texture_effects_tests.rs"]
+mod texture_tests;
