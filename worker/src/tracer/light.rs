@@ -23,7 +23,8 @@
 //! the whole image.
 use crate::tracer::accel::triangle_normal;
 use crate::tracer::effects::{AllEffects, EffectSet};
-use crate::tracer::texture::{Texture, TextureRef};
+pub use crate::tracer::texture::EmissiveTexture;
+use crate::tracer::texture::Texture;
 use crate::tracer::ray::ErrPoint;
 use crate::tracer::sampling::{Frame, cosine_hemisphere, luminance, uniform_triangle};
 use glam::{DVec3, Vec2, Vec3};
@@ -49,24 +50,6 @@ pub enum Light {
     Spot { position: Vec3, axis: Vec3, intensity: Vec3, cos_inner: f32, cos_outer: f32 },
     Directional { dir: Vec3, irradiance: Vec3 },
     Background { radiance: Vec3 },
-}
-
-/// The emissive texture of an area light, with the triangle's texture coordinates.
-#[derive(Clone, Debug, PartialEq)]
-pub struct EmissiveTexture {
-    pub texture: TextureRef,
-    /// Both UV sets at the triangle's corners.
-    pub uvs: [[Vec2; 3]; 2],
-    /// The texture's mean texel (linear RGB), for the light's power.
-    pub mean: Vec3,
-}
-
-impl EmissiveTexture {
-    /// The texel at barycentrics `b`.
-    fn at(&self, textures: &[Texture], b: [f32; 3]) -> Vec3 {
-        let uvs = self.uvs.map(|t| t[0] * b[0] + t[1] * b[1] + t[2] * b[2]);
-        self.texture.sample(textures, &uvs).truncate()
-    }
 }
 
 /// Where a light sample lies, for the shadow ray.

@@ -37,6 +37,25 @@ impl TextureRef {
     }
 }
 
+/// The emissive texture of an area light ([`crate::tracer::light::Light::Triangle`]), with the
+/// triangle's texture coordinates.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EmissiveTexture {
+    pub texture: TextureRef,
+    /// Both UV sets at the triangle's corners.
+    pub uvs: [[Vec2; 3]; 2],
+    /// The texture's mean texel (linear RGB), for the light's power.
+    pub mean: Vec3,
+}
+
+impl EmissiveTexture {
+    /// The texel at barycentrics `b`.
+    pub(crate) fn at(&self, textures: &[Texture], b: [f32; 3]) -> Vec3 {
+        let uvs = self.uvs.map(|t| t[0] * b[0] + t[1] * b[1] + t[2] * b[2]);
+        self.texture.sample(textures, &uvs).truncate()
+    }
+}
+
 /// An affine map of texture coordinates: uv' = x·u + y·v + offset.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UvTransform {
