@@ -98,6 +98,7 @@ fn gated_and_all_effects_renders_agree_within_error_bars() {
         let s = settings(Estimator::Mis, Roulette::default(), 24, glam::Vec3::ZERO);
         let render = |k| render_tile_kernel(&scene, &s, s.full_frame(), 0..64, &never, k).unwrap().unwrap();
         let (gated, all) = (render(None), render(Some(KernelBits::ALL)));
+        assert_eq!((gated.dropped, all.dropped), (0, 0), "{name}: non-finite samples");
         let (mut outliers, mut n) = (0, 0);
         for (a, b) in gated.pixels.iter().zip(&all.pixels) {
             for c in 0..3 {
