@@ -1,4 +1,5 @@
-//! glTF nodes → world-space triangles, cameras and punctual lights.
+//! glTF nodes → world-space triangles (positions, normals, two UV sets, `TANGENT`s), cameras
+//! and punctual lights.
 use super::SceneError;
 use crate::tracer::camera::Camera;
 use crate::tracer::light::Light;

@@ -3,6 +3,9 @@
 //! Each pixel's samples are summed in sample-index order by a single thread, and each sample's
 //! random numbers depend only on (seed, pixel, sample index, dimension), so the result is
 //! bit-identical whatever the thread count or the machine.
+//!
+//! The scene chooses the kernel (its effects) and caps the path depth (its needed depth: 0 when
+//! nothing can scatter or nothing emits) unless the caller forces a kernel.
 use crate::dispatch_kernel;
 use crate::tracer::camera::RasterCamera;
 use crate::tracer::effects::{EffectSet, KernelBits};
