@@ -828,10 +828,83 @@ def scene_cornell_animated() -> dict:
     }]
     return g.finish()
 
+def _vec2_accessor(g: Gltf, uvs: list[tuple[float, float]]) -> int:
+    flat = [f32(c) for t in uvs for c in t]
+    view = g._view(struct.pack("<%df" % len(flat), *flat), ARRAY_BUFFER)
+    g.doc["accessors"].append({"bufferView": view, "byteOffset": 0, "componentType": FLOAT,
+                               "count": len(uvs), "type": "VEC2"})
+    return len(g.doc["accessors"]) - 1
+
+
+def _textured_quad(g: Gltf, name: str, pos: list[Vec3], material: int) -> None:
+    """A quad (4 corners, counter-clockwise from the front) with UVs (0,1) (1,1) (1,0) (0,0):
+    u to the right, v down the image, so the image appears upright."""
+    n = tri_normal((pos[0], pos[1], pos[2]))
+    a_pos = g.vec3_accessor(pos, with_bounds=True)
+    a_nrm = g.vec3_accessor([n] * 4, with_bounds=False)
+    a_uv = _vec2_accessor(g, [(0.0, 1.0), (1.0, 1.0), (1.0, 0.0), (0.0, 0.0)])
+    g.doc["meshes"].append({"name": name, "primitives": [{
+        "attributes": {"POSITION": a_pos, "NORMAL": a_nrm, "TEXCOORD_0": a_uv},
+        "indices": g.index_accessor([0, 1, 2, 0, 2, 3]), "material": material, "mode": 4}]})
+    g.node(name, mesh=len(g.doc["meshes"]) - 1)
+
+
+def _texture(g: Gltf, png: bytes) -> int:
+    """Embeds a PNG as image + texture (repeat wrapping, so transforms tile); its index."""
+    g.doc.setdefault("images", []).append({"bufferView": g._view(png, None), "mimeType": "image/png"})
+    g.doc.setdefault("samplers", [{"wrapS": 10497, "wrapT": 10497}])
+    g.doc.setdefault("textures", []).append({"source": len(g.doc["images"]) - 1, "sampler": 0})
+    return len(g.doc["textures"]) - 1
+
+
+def _normal_texel(x: int, y: int) -> tuple[int, int, int, int]:
+    """Ridges along u: the normal tilts ±30° towards ±tangent in a sine across 8 texels."""
+    tilt = math.radians(30.0) * math.sin(2.0 * math.pi * (x + 0.5) / 8.0)
+    n = (math.sin(tilt), 0.0, math.cos(tilt))
+    return tuple(round((c + 1.0) * 0.5 * 255.0) for c in n) + (255,)
+
+
+def scene_textured() -> dict:
+    g = Gltf("Textures: base colour, metallic-roughness, normal and emissive maps, texture transforms")
+    _lit_floor(g)
+    checker = _texture(g, png_rgba(8, 8, lambda x, y: (200, 60, 40, 255) if (x // 2 + y // 2) % 2 else (230, 220, 200, 255)))
+    # G = roughness, B = metallic: metal with smooth and rough columns on the left half.
+    mr = _texture(g, png_rgba(8, 8, lambda x, y: (0, 60 if x % 4 < 2 else 230, 255 if x < 4 else 0, 255)))
+    ridges = _texture(g, png_rgba(8, 8, _normal_texel))
+    glow = _texture(g, png_rgba(8, 8, lambda x, y: (255, 180, 60, 255) if (x + y) % 4 == 0 else (20, 40, 120, 255)))
+    tile = {"name": "textured_tile",
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 1.0, "roughnessFactor": 1.0,
+                "baseColorTexture": {"index": checker, "extensions": {"KHR_texture_transform": {"scale": [2.0, 2.0]}}},
+                "metallicRoughnessTexture": {"index": mr}},
+            "normalTexture": {"index": ridges, "scale": 1.0,
+                              "extensions": {"KHR_texture_transform": {"scale": [3.0, 1.0]}}}}
+    _textured_quad(g, "tile", [(-0.9, 0.05, 0.0), (-0.05, 0.05, 0.0), (-0.05, 0.9, 0.0), (-0.9, 0.9, 0.0)], g.material(tile))
+    sign = lambert("glowing_sign", (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), 3.0)
+    sign["emissiveTexture"] = {"index": glow, "extensions": {"KHR_texture_transform": {
+        "offset": [0.25, 0.0], "rotation": round(math.radians(30.0), 6)}}}
+    _textured_quad(g, "sign", [(0.1, 0.05, 0.0), (0.9, 0.05, 0.0), (0.9, 0.85, 0.0), (0.1, 0.85, 0.0)], g.material(sign))
+    g.camera("Camera", 0.7, (0.0, 0.9, 2.6), (0.0, 0.4, 0.0))
+    return g.finish()
+
+
+def scene_emitters_only() -> dict:
+    g = Gltf("Emitters and black surfaces: nothing scatters, so paths end at their first hit")
+    black = g.material(lambert("black", (0.0, 0.0, 0.0)))
+    g.node("floor", mesh=g.flat_mesh("floor", rect_y(-3.0, 3.0, -3.0, 3.0, 0.0, True), black))
+    g.node("box", translation=(-0.5, 0.25, 0.0), mesh=g.flat_mesh("box", box_triangles((0.5, 0.5, 0.5)), black))
+    for k, (c, x) in enumerate((((1.0, 0.3, 0.1), 0.0), ((0.2, 0.5, 1.0), 0.7))):
+        m = g.material(lambert("lamp%d" % k, (0.0, 0.0, 0.0), c, 2.0))
+        g.node("lamp%d" % k, translation=(x, 0.3, 0.0), mesh=g.flat_mesh("lamp%d" % k, box_triangles((0.3, 0.6, 0.3)), m))
+    g.camera("Camera", 0.7, (0.0, 0.9, 2.6), (0.0, 0.3, 0.0))
+    return g.finish()
+
+
 SCENES = {
     "absorption.gltf": scene_absorption,
     "alpha-mask.gltf": scene_alpha_mask,
     "depth-of-field.gltf": scene_depth_of_field,
+    "emitters-only.gltf": scene_emitters_only,
     "glass.gltf": scene_glass,
     "cornell-box.gltf": scene_cornell_box,
     "cornell-animated.gltf": scene_cornell_animated,
@@ -840,6 +913,7 @@ SCENES = {
     "glossy.gltf": scene_glossy,
     "phong.gltf": scene_phong,
     "punctual.gltf": scene_punctual,
+    "textured.gltf": scene_textured,
 }
 
 

@@ -10,11 +10,13 @@ pub const SCENES: &[(&str, &[u8])] = &[
     ("cornell-box", include_bytes!("../../scenes/cornell-box.gltf")),
     ("cornell-small-light", include_bytes!("../../scenes/cornell-small-light.gltf")),
     ("depth-of-field", include_bytes!("../../scenes/depth-of-field.gltf")),
+    ("emitters-only", include_bytes!("../../scenes/emitters-only.gltf")),
     ("furnace", include_bytes!("../../scenes/furnace.gltf")),
     ("glass", include_bytes!("../../scenes/glass.gltf")),
     ("glossy", include_bytes!("../../scenes/glossy.gltf")),
     ("phong", include_bytes!("../../scenes/phong.gltf")),
     ("punctual", include_bytes!("../../scenes/punctual.gltf")),
+    ("textured", include_bytes!("../../scenes/textured.gltf")),
 ];
 
 pub fn get(name: &str) -> Option<&'static [u8]> {

@@ -8,7 +8,9 @@
 //! | `lambert`            | a material is purely diffuse (metallic 0, specular 0)  |
 //! | `ggx`                | a material has a microfacet specular layer or is metal |
 //! | `phong`              | a material uses `TESSERA_materials_phong`              |
-//! | `textures`           | a material reads a texture                             |
+//! | `textures`           | a material reads a texture (any slot)                  |
+//! | `normal_maps`        | a material has a `normalTexture`                       |
+//! | `max_depth=0`        | no used material scatters light: paths end at the first hit |
 //! | `glass`              | a material transmits (`KHR_materials_transmission`)    |
 //! | `absorption`         | a glass material has a volume with finite `attenuationDistance` |
 //! | `alpha_mask`         | a material has `alphaMode: MASK`                       |

@@ -1,10 +1,11 @@
-//! glTF nodes → world-space triangles, cameras and punctual lights.
+//! glTF nodes → world-space triangles (positions, normals, two UV sets, `TANGENT`s), cameras
+//! and punctual lights.
 use super::SceneError;
 use super::animation::Pose;
 use crate::tracer::camera::Camera;
 use crate::tracer::light::Light;
 use crate::tracer::scene::Mesh;
-use glam::{DMat4, DVec3, Mat3, Mat4, Vec2, Vec3};
+use glam::{DMat4, DVec3, Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::mesh::Mode;
 
 pub struct Parts {
@@ -58,6 +59,9 @@ pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, ma
             light_worlds.push(world);
         }
         stack.extend(node.children().map(|c| (c, world, depth + 1)));
+    }
+    if parts.mesh.tangents.iter().flatten().all(|t| t.w == 0.0) {
+        parts.mesh.tangents = Vec::new();
     }
     let origin = rebase_origin(&positions);
     let to_local = DMat4::from_translation(-origin);
@@ -175,6 +179,7 @@ fn add_mesh(
             return Err(SceneError::new(at(&format!("POSITION {k} is not finite"))));
         }
         let normals: Option<Vec<Vec3>> = reader.read_normals().map(|n| n.map(Vec3::from).collect());
+        let tangents: Option<Vec<Vec4>> = reader.read_tangents().map(|t| t.map(Vec4::from).collect());
         let uv = |set| reader.read_tex_coords(set).map(|t| t.into_f32().map(Vec2::from).collect::<Vec<_>>());
         let uvs = [uv(0), uv(1)];
         let indices: Vec<u32> = match reader.read_indices() {
@@ -185,6 +190,7 @@ fn add_mesh(
             return Err(SceneError::new(at(&format!("index {bad} out of range (POSITION count {})", positions.len()))));
         }
         check_len(&at, "NORMAL", normals.as_ref().map(Vec::len), positions.len())?;
+        check_len(&at, "TANGENT", tangents.as_ref().map(Vec::len), positions.len())?;
         check_len(&at, "TEXCOORD_0", uvs[0].as_ref().map(Vec::len), positions.len())?;
         check_len(&at, "TEXCOORD_1", uvs[1].as_ref().map(Vec::len), positions.len())?;
         let material = match prim.material().index() {
@@ -205,13 +211,26 @@ fn add_mesh(
                 Some(set) => corners.map(|i| set[i as usize]),
                 None => [Vec2::ZERO; 3],
             });
+            // Tangents lie in the surface: they transform like positions (w, the handedness,
+            // flips with a mirroring transform). Zero marks "none" (normal maps use UVs).
+            let tg = match &tangents {
+                Some(ts) => corners.map(|i| tangent(ts[i as usize], world, mirrored)),
+                None => [Vec4::ZERO; 3],
+            };
             positions64.push(p64);
             out.normals.push(n);
+            out.tangents.push(tg);
             out.uvs.push(t);
             out.material.push(material);
         }
     }
     Ok(())
+}
+
+fn tangent(t: Vec4, world: Mat4, mirrored: bool) -> Vec4 {
+    let xyz = world.transform_vector3(t.truncate()).normalize_or_zero();
+    let w = if (t.w < 0.0) != mirrored { -1.0 } else { 1.0 };
+    if xyz == Vec3::ZERO || !xyz.is_finite() { Vec4::ZERO } else { xyz.extend(w) }
 }
 
 /// Triangles still allowed; spent per mesh instance from accessor counts, before reading.

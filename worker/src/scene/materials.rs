@@ -1,18 +1,15 @@
-//! glTF materials and textures → [`Material`] and [`Texture`].
-use super::{SceneError, uri};
+//! glTF materials → [`Material`]: factors, the four texture slots (base colour, emissive:
+//! sRGB; metallic-roughness, normal: linear; each with `KHR_texture_transform`), and the
+//! extensions listed in [`crate::scene`].
+use super::SceneError;
+use super::textures::{ColourSpace, TexturePool, Transform};
 use crate::tracer::bsdf::{Pbr, Phong};
-use crate::tracer::material::{Glass, Material, MaterialModel, TextureRef};
-use crate::tracer::texture::{Texture, Wrap, srgb_to_linear};
+use crate::tracer::material::{Glass, Material, MaterialModel, NormalTexture, TextureRef};
 use glam::{Vec3, Vec4};
-use std::path::Path;
 
 /// The project's extension carrying the seed's Phong/Lafortune BRDF:
 /// `"TESSERA_materials_phong": {"kd": [r, g, b], "ks": [r, g, b], "n": exponent}` with kd + ks ≤ 1.
 pub const PHONG_EXTENSION: &str = "TESSERA_materials_phong";
-
-/// Most texture pixels a scene may decode, all images together (a guard against decompression
-/// bombs: a few kilobytes of PNG can declare gigapixels; 2²⁶ pixels are 1 GiB as f32 RGBA).
-const MAX_TEXTURE_PIXELS: u64 = 1 << 26;
 
 pub fn default_material() -> Material {
     // glTF 2.0 default: base colour 1, metallic 1, roughness 1.
@@ -20,11 +17,29 @@ pub fn default_material() -> Material {
     Material { model: MaterialModel::Pbr(pbr), ..Material::lambert("default", Vec3::ONE) }
 }
 
-pub fn load_materials(doc: &gltf::Document, texture_count: usize) -> Result<Vec<Material>, SceneError> {
-    doc.materials().map(|m| material(&m, texture_count)).collect()
+pub fn load_materials(doc: &gltf::Document, pool: &mut TexturePool) -> Result<Vec<Material>, SceneError> {
+    doc.materials().map(|m| material(&m, pool)).collect()
 }
 
-fn material(m: &gltf::Material, texture_count: usize) -> Result<Material, SceneError> {
+/// The binding of a `textureInfo` slot.
+fn info(slot: &str, info: Option<gltf::texture::Info>, pool: &mut TexturePool, space: ColourSpace) -> Result<Option<TextureRef>, String> {
+    let Some(info) = info else { return Ok(None) };
+    let t = pool.bind(info.texture().index(), info.tex_coord(), Transform::of_info(&info), space);
+    t.map(Some).map_err(|e| format!("{slot}: {e}"))
+}
+
+fn normal_texture(m: &gltf::Material, pool: &mut TexturePool) -> Result<Option<NormalTexture>, String> {
+    let Some(n) = m.normal_texture() else { return Ok(None) };
+    let at = |e: String| format!("normalTexture: {e}");
+    let transform = n.extension_value("KHR_texture_transform").map(Transform::of_json).transpose().map_err(at)?;
+    let texture = pool.bind(n.texture().index(), n.tex_coord(), transform, ColourSpace::Linear).map_err(at)?;
+    if !n.scale().is_finite() {
+        return Err(at(format!("scale {} must be finite", n.scale())));
+    }
+    Ok(Some(NormalTexture { texture, scale: n.scale() }))
+}
+
+fn material(m: &gltf::Material, pool: &mut TexturePool) -> Result<Material, SceneError> {
     let i = m.index().unwrap_or(0);
     let at = |what: String| SceneError::new(format!("material {i}: {what}"));
     let pbr = m.pbr_metallic_roughness();
@@ -32,11 +47,10 @@ fn material(m: &gltf::Material, texture_count: usize) -> Result<Material, SceneE
     if !emission.is_finite() || emission.min_element() < 0.0 {
         return Err(at(format!("emission {emission} must be finite and ≥ 0")));
     }
-    let base_color_texture = match pbr.base_color_texture() {
-        Some(info) if info.texture().index() >= texture_count => return Err(at("base colour texture does not exist".into())),
-        Some(info) => Some(TextureRef { texture: info.texture().index() as u32, tex_coord: info.tex_coord() }),
-        None => None,
-    };
+    let base_color_texture = info("baseColorTexture", pbr.base_color_texture(), pool, ColourSpace::Srgb).map_err(at)?;
+    let metallic_roughness_texture = info("metallicRoughnessTexture", pbr.metallic_roughness_texture(), pool, ColourSpace::Linear).map_err(at)?;
+    let emissive_texture = info("emissiveTexture", m.emissive_texture(), pool, ColourSpace::Srgb).map_err(at)?;
+    let normal_texture = normal_texture(m, pool).map_err(at)?;
     let model = match m.extension_value(PHONG_EXTENSION) {
         Some(v) => MaterialModel::Phong(phong(v).map_err(at)?),
         None => MaterialModel::Pbr(metallic_roughness(m, &pbr).map_err(at)?),
@@ -51,7 +65,19 @@ fn material(m: &gltf::Material, texture_count: usize) -> Result<Material, SceneE
         return Err(at(format!("alpha {alpha} must be in [0, 1] and alphaCutoff finite and ≥ 0")));
     }
     let glass = glass(m, &pbr).map_err(at)?;
-    Ok(Material { name, model, base_color_texture, emission, double_sided: m.double_sided(), alpha, alpha_cutoff, glass })
+    Ok(Material {
+        name,
+        model,
+        base_color_texture,
+        metallic_roughness_texture,
+        normal_texture,
+        emissive_texture,
+        emission,
+        double_sided: m.double_sided(),
+        alpha,
+        alpha_cutoff,
+        glass,
+    })
 }
 
 /// `KHR_materials_transmission` (+ `_ior`, `_volume`) → [`Glass`]; None without transmission.
@@ -125,59 +151,4 @@ fn phong(v: &serde_json::Value) -> Result<Phong, String> {
     };
     let n = v.get("n").and_then(|x| x.as_f64()).ok_or(format!("{PHONG_EXTENSION}.n must be a number"))? as f32;
     Phong::new(rgb("kd")?, rgb("ks")?, n).map_err(|e| format!("{PHONG_EXTENSION}: {e}"))
-}
-
-/// Decodes every texture's image (colour textures: sRGB → linear).
-pub fn load_textures(doc: &gltf::Document, base: Option<&Path>, buffers: &[Vec<u8>]) -> Result<Vec<Texture>, SceneError> {
-    let mut images: Vec<Option<(u32, u32, Vec<Vec4>)>> = vec![None; doc.images().len()];
-    let mut out = Vec::new();
-    let mut budget = MAX_TEXTURE_PIXELS;
-    for tex in doc.textures() {
-        let img = tex.source();
-        let at = |what: String| SceneError::new(format!("texture {} (image {}): {what}", tex.index(), img.index()));
-        if images[img.index()].is_none() {
-            images[img.index()] = Some(decode_image(&img, base, buffers, &mut budget).map_err(at)?);
-        }
-        let (width, height, texels) = images[img.index()].clone().expect("decoded above");
-        let sampler = tex.sampler();
-        out.push(Texture { width, height, texels, wrap_s: wrap(sampler.wrap_s()), wrap_t: wrap(sampler.wrap_t()) });
-    }
-    Ok(out)
-}
-
-fn wrap(w: gltf::texture::WrappingMode) -> Wrap {
-    match w {
-        gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
-        gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
-        gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
-    }
-}
-
-fn decode_image(img: &gltf::Image, base: Option<&Path>, buffers: &[Vec<u8>], budget: &mut u64) -> Result<(u32, u32, Vec<Vec4>), String> {
-    let encoded = match img.source() {
-        gltf::image::Source::View { view, .. } => {
-            let buf = buffers.get(view.buffer().index()).ok_or("buffer view refers to a missing buffer")?;
-            let end = view.offset().checked_add(view.length()).ok_or("buffer view overflows")?;
-            buf.get(view.offset()..end).ok_or("buffer view lies outside its buffer")?.to_vec()
-        }
-        gltf::image::Source::Uri { uri, .. } => uri::resolve(uri, base)?,
-    };
-    let reader = image::ImageReader::new(std::io::Cursor::new(&encoded))
-        .with_guessed_format()
-        .map_err(|e| format!("cannot read image: {e}"))?;
-    let (w, h) = reader.into_dimensions().map_err(|e| format!("not a PNG or JPEG image: {e}"))?;
-    if w == 0 || h == 0 {
-        return Err(format!("image is {w}×{h}"));
-    }
-    if w as u64 * h as u64 > *budget {
-        return Err(format!("image is {w}×{h}; a scene's textures may hold at most {MAX_TEXTURE_PIXELS} pixels in all ({} left)", *budget));
-    }
-    *budget -= w as u64 * h as u64;
-    let decoded = image::load_from_memory(&encoded).map_err(|e| format!("cannot decode image: {e}"))?;
-    let rgba = decoded.to_rgba32f();
-    let texels = rgba
-        .pixels()
-        .map(|p| Vec4::new(srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2]), p[3]))
-        .collect();
-    Ok((w, h, texels))
 }

@@ -2,9 +2,11 @@
 //!
 //! Supported: `.gltf` (buffers and images as data URIs or files next to it) and `.glb`; every
 //! node of the default scene with its transform; indexed and non-indexed triangles, strips and
-//! fans; normals (flat where missing); two UV sets; the metallic-roughness material with
-//! `KHR_materials_specular`, `KHR_materials_ior`, `KHR_materials_emissive_strength`, base-colour
-//! textures (PNG/JPEG) and the project's `TESSERA_materials_phong`; `KHR_materials_transmission`
+//! fans; normals (flat where missing); two UV sets; tangents (`TANGENT`, else derived from UVs);
+//! the metallic-roughness material with `KHR_materials_specular`, `KHR_materials_ior`,
+//! `KHR_materials_emissive_strength`, base-colour, metallic-roughness, normal and emissive
+//! textures (PNG/JPEG) with `KHR_texture_transform`, and the project's
+//! `TESSERA_materials_phong`; `KHR_materials_transmission`
 //! and `KHR_materials_volume` (glass, absorption); `alphaMode: MASK`; perspective cameras with an
 //! optional thin lens in `extras`; `KHR_lights_punctual`; animations of node translation,
 //! rotation and scale ([`animation`]), played frame by frame through a [`Sequence`] (the file
@@ -18,6 +20,7 @@ pub mod effects;
 mod geometry;
 mod materials;
 mod sequence;
+mod textures;
 mod uri;
 mod validate;
 

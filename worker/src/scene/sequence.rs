@@ -48,8 +48,9 @@ impl Sequence {
             .map_err(|e| SceneError::new(format!("invalid glTF: {}", e.to_string().trim_start_matches("invalid glTF: "))))?;
         let document = gltf.document;
         let buffers = uri::load_buffers(&document, base, gltf.blob)?;
-        let textures = materials::load_textures(&document, base, &buffers)?;
-        let mut materials = materials::load_materials(&document, textures.len())?;
+        let mut pool = super::textures::TexturePool::load(&document, base, &buffers)?;
+        let mut materials = materials::load_materials(&document, &mut pool)?;
+        let textures = pool.finish();
         // Primitives without a material use glTF's default material, appended last.
         materials.push(materials::default_material());
         let animations = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| animation::parse(&document, &buffers)))

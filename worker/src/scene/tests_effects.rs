@@ -11,8 +11,19 @@ fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../scenes/{name}.gltf"))
 }
 
-const BUNDLED: [&str; 9] =
-    ["absorption", "alpha-mask", "cornell-box", "depth-of-field", "furnace", "glass", "glossy", "phong", "punctual"];
+const BUNDLED: [&str; 11] = [
+    "absorption",
+    "alpha-mask",
+    "cornell-box",
+    "depth-of-field",
+    "emitters-only",
+    "furnace",
+    "glass",
+    "glossy",
+    "phong",
+    "punctual",
+    "textured",
+];
 
 #[test]
 fn each_effect_scene_reports_its_effect_and_the_matte_scenes_do_not() {
@@ -27,11 +38,43 @@ fn each_effect_scene_reports_its_effect_and_the_matte_scenes_do_not() {
         ("punctual", "spot_lights"),
         ("glossy", "ggx"),
         ("phong", "phong"),
+        ("textured", "textures"),
+        ("textured", "normal_maps"),
+        ("textured", "ggx"),
+        ("emitters-only", "max_depth=0"),
     ] {
         assert!(effects(scene).contains(&effect.to_string()), "{scene}: {:?}", effects(scene));
     }
     assert_eq!(effects("cornell-box"), ["area_lights", "lambert"]);
     assert!(!effects("glass").contains(&"absorption".to_string()), "clear glass does not absorb");
+    assert!(!effects("alpha-mask").contains(&"normal_maps".to_string()), "base colour only");
+}
+
+#[test]
+fn the_textured_scene_binds_each_slot_in_its_colour_space_with_its_transform() {
+    use crate::tracer::texture::UvTransform;
+    use glam::Vec2;
+    let scene = load_path(&scene_path("textured")).unwrap();
+    let by_name = |n: &str| scene.materials.iter().find(|m| m.name == n).unwrap();
+    let (tile, sign) = (by_name("textured_tile"), by_name("glowing_sign"));
+    let base = tile.base_color_texture.unwrap();
+    assert_eq!(base.transform, UvTransform::from_gltf(Vec2::ZERO, 0.0, Vec2::splat(2.0)));
+    let normal = tile.normal_texture.unwrap();
+    assert_eq!((normal.scale, normal.texture.transform), (1.0, UvTransform::from_gltf(Vec2::ZERO, 0.0, Vec2::new(3.0, 1.0))));
+    let emissive = sign.emissive_texture.unwrap();
+    let want = UvTransform::from_gltf(Vec2::new(0.25, 0.0), 30f32.to_radians(), Vec2::ONE);
+    let t = emissive.transform;
+    // The file stores the angle to 6 decimals.
+    assert!((t.x - want.x).length() + (t.y - want.y).length() + (t.offset - want.offset).length() < 1e-5, "{t:?}");
+    assert!(tile.metallic_roughness_texture.is_some());
+    // The normal map is data: texel (0, 0) holds the generator's 8-bit value, not sRGB-decoded.
+    let tilt = 30f64.to_radians() * (std::f64::consts::PI * 0.5 / 4.0).sin();
+    let blue = ((tilt.cos() + 1.0) * 0.5 * 255.0).round() / 255.0;
+    let texel = scene.textures[normal.texture.texture as usize].texels[0];
+    assert!((texel.z as f64 - blue).abs() < 1e-6, "{texel} vs {blue}");
+    // The emissive sign is a textured area light, and no other light is.
+    let textured = scene.lights.iter().filter(|l| matches!(l, crate::tracer::light::Light::Triangle { texture: Some(_), .. })).count();
+    assert_eq!(textured, 2);
 }
 
 #[test]
@@ -55,6 +98,7 @@ fn gated_and_all_effects_renders_agree_within_error_bars() {
         let s = settings(Estimator::Mis, Roulette::default(), 24, glam::Vec3::ZERO);
         let render = |k| render_tile_kernel(&scene, &s, s.full_frame(), 0..64, &never, k).unwrap().unwrap();
         let (gated, all) = (render(None), render(Some(KernelBits::ALL)));
+        assert_eq!((gated.dropped, all.dropped), (0, 0), "{name}: non-finite samples");
         let (mut outliers, mut n) = (0, 0);
         for (a, b) in gated.pixels.iter().zip(&all.pixels) {
             for c in 0..3 {

@@ -81,3 +81,41 @@ fn base_colour_texture_is_decoded_from_srgb() {
     assert!((t.x - 0.5029).abs() < 2e-3, "sRGB 188 decodes to ≈0.503 linear, got {}", t.x);
     assert_eq!(scene.materials[0].base_color_texture.unwrap().texture, 0);
 }
+
+#[test]
+fn tangents_follow_the_node_transform_and_mirroring_flips_their_handedness() {
+    let json = strip_json("", "")
+        .replace(r#""TEXCOORD_0":1}"#, r#""TEXCOORD_0":1,"TANGENT":2}"#)
+        .replace(r#"{"bufferView":1,"componentType":5126,"count":4,"type":"VEC2"}]"#,
+            r#"{"bufferView":1,"componentType":5126,"count":4,"type":"VEC2"},{"bufferView":2,"componentType":5126,"count":4,"type":"VEC4"}]"#)
+        .replace(r#"{"buffer":0,"byteOffset":48,"byteLength":32}]"#, r#"{"buffer":0,"byteOffset":48,"byteLength":32},{"buffer":0,"byteOffset":80,"byteLength":64}]"#)
+        .replace(r#""byteLength":80}"#, r#""byteLength":144}"#);
+    let mut bin = strip_bin();
+    bin.extend(f32_bytes(&[1., 0., 0., 1.].repeat(4)));
+    let scene = load_bytes(&glb(&json, &bin), None).unwrap();
+    // scale (−1, 1, 1) maps +x to −x and mirrors the frame: w flips from +1 to −1.
+    assert!(scene.mesh.tangents.iter().flatten().all(|t| *t == glam::Vec4::new(-1.0, 0.0, 0.0, -1.0)), "{:?}", scene.mesh.tangents);
+    // Without TANGENT anywhere, no tangents are stored (normal maps derive them from UVs).
+    assert!(load_bytes(&glb(&strip_json("", ""), &strip_bin()), None).unwrap().mesh.tangents.is_empty());
+}
+
+#[test]
+fn a_texture_in_colour_and_data_slots_is_decoded_once_per_colour_space() {
+    let mut png = Vec::new();
+    let img = image::RgbaImage::from_pixel(2, 2, image::Rgba([188, 188, 188, 255]));
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
+    use base64::Engine;
+    let uri = format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png));
+    let material = r#","baseColorTexture":{"index":0}},"normalTexture":{"index":0,"scale":0.5}"#;
+    let json = triangle_gltf(true, "")
+        .replace(r#""baseColorFactor":[0.5,0.5,0.5,1]}"#, &format!(r#""baseColorFactor":[0.5,0.5,0.5,1]{material}"#))
+        .replace(r#""cameras":"#, &format!(r#""textures":[{{"source":0}}],"images":[{{"uri":"{uri}"}}],"cameras":"#));
+    let scene = load_bytes(json.as_bytes(), None).unwrap();
+    assert_eq!(scene.textures.len(), 2, "one sRGB-decoded and one linear copy");
+    let m = &scene.materials[0];
+    let (colour, normal) = (m.base_color_texture.unwrap(), m.normal_texture.unwrap());
+    assert_eq!(normal.scale, 0.5);
+    let linear = scene.textures[normal.texture.texture as usize].sample(Vec2::splat(0.5)).x;
+    let decoded = scene.textures[colour.texture as usize].sample(Vec2::splat(0.5)).x;
+    assert!((linear - 188.0 / 255.0).abs() < 1e-6 && (decoded - 0.5029).abs() < 2e-3, "{linear} {decoded}");
+}

@@ -9,6 +9,13 @@
 //! absent effect is behind `if E::GLASS { … }` with a constant condition, so the compiler
 //! removes it from that kernel: a matte scene runs a kernel that contains no glass, alpha,
 //! lens or texture code at all, not one that branches around it per sample.
+//!
+//! Normal maps are folded into `SURFACES` rather than given a fifth bit (32 kernels, twice the
+//! compile time): the matte kernel has no normal-map code; a textured kernel checks the
+//! material's `normal_texture` once per hit, next to the texture lookups it does anyway.
+//!
+//! Depth: [`Effects::NO_SCATTERING`] (no used material can scatter) lets a render stop every
+//! path at its first hit; see [`crate::tracer::Scene::needed_depth`].
 use crate::tracer::light::Light;
 use crate::tracer::material::{Material, MaterialModel};
 
@@ -30,10 +37,14 @@ impl Effects {
     pub const ABSORPTION: Effects = Effects(1 << 10);
     pub const ALPHA_MASK: Effects = Effects(1 << 11);
     pub const DEPTH_OF_FIELD: Effects = Effects(1 << 12);
+    pub const NORMAL_MAPS: Effects = Effects(1 << 13);
+    /// Not an effect but its absence: no material can scatter light, so a path needs no
+    /// bounce (the camera sees emitters and black); reported as the depth limit "max_depth=0".
+    pub const NO_SCATTERING: Effects = Effects(1 << 14);
     pub const NONE: Effects = Effects(0);
 
     /// Every effect with its reported name, in report order.
-    pub const NAMED: [(Effects, &'static str); 13] = [
+    pub const NAMED: [(Effects, &'static str); 15] = [
         (Effects::ABSORPTION, "absorption"),
         (Effects::ALPHA_MASK, "alpha_mask"),
         (Effects::AREA_LIGHTS, "area_lights"),
@@ -43,6 +54,8 @@ impl Effects {
         (Effects::GGX, "ggx"),
         (Effects::GLASS, "glass"),
         (Effects::LAMBERT, "lambert"),
+        (Effects::NO_SCATTERING, "max_depth=0"),
+        (Effects::NORMAL_MAPS, "normal_maps"),
         (Effects::PHONG, "phong"),
         (Effects::POINT_LIGHTS, "point_lights"),
         (Effects::SPOT_LIGHTS, "spot_lights"),
@@ -63,9 +76,13 @@ impl Effects {
 
     /// The effects of the materials used by `used_materials` and of `lights`.
     pub fn analyse<'m>(used_materials: impl Iterator<Item = &'m Material>, lights: &[Light]) -> Effects {
-        let mut e = Effects::NONE;
+        let (mut e, mut scatters) = (Effects::NONE, false);
         for m in used_materials {
             e = e | m.effects();
+            scatters |= m.scatters();
+        }
+        if !scatters {
+            e = e | Effects::NO_SCATTERING;
         }
         for l in lights {
             e = e | match l {
@@ -82,7 +99,7 @@ impl Effects {
     /// The kernel that covers these effects and nothing more.
     pub fn kernel(self) -> KernelBits {
         let mut k = 0;
-        if self.intersects(Effects(Effects::GGX.0 | Effects::PHONG.0 | Effects::TEXTURES.0)) {
+        if self.intersects(Effects(Effects::GGX.0 | Effects::PHONG.0 | Effects::TEXTURES.0 | Effects::NORMAL_MAPS.0)) {
             k |= KernelBits::SURFACES;
         }
         if self.intersects(Effects(Effects::GLASS.0 | Effects::ABSORPTION.0)) {
@@ -114,8 +131,12 @@ impl Material {
             MaterialModel::Pbr(_) => Effects::GGX,
             MaterialModel::Phong(_) => Effects::PHONG,
         };
-        if self.base_color_texture.is_some() {
+        let textures = [self.base_color_texture, self.metallic_roughness_texture, self.emissive_texture];
+        if textures.iter().any(Option::is_some) || self.normal_texture.is_some() {
             e = e | Effects::TEXTURES;
+        }
+        if self.normal_texture.is_some() {
+            e = e | Effects::NORMAL_MAPS;
         }
         if self.glass.is_some() {
             e = e | Effects::GLASS;
@@ -135,7 +156,8 @@ impl Material {
 pub struct KernelBits(pub u8);
 
 impl KernelBits {
-    /// GGX and Phong BSDFs and texture lookups (without it: Lambert with constant albedo).
+    /// GGX and Phong BSDFs, texture lookups (every slot, emissive textures in light samples
+    /// too) and normal maps (without it: Lambert with constant albedo, flat emission).
     pub const SURFACES: u8 = 1 << 0;
     /// Transmission through dielectrics and Beer–Lambert absorption inside them.
     pub const GLASS: u8 = 1 << 1;
@@ -199,3 +221,7 @@ macro_rules! dispatch_kernel {
 #[cfg(test)]
 #[path = "effects_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "texture_effects_tests.rs"]
+mod texture_tests;

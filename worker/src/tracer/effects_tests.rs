@@ -129,7 +129,7 @@ fn mask_scene(alpha: f32, texture_alpha: Option<[f32; 2]>) -> Scene {
         use crate::tracer::texture::{Texture, Wrap};
         let texels = vec![Vec4::new(1.0, 1.0, 1.0, a0), Vec4::new(1.0, 1.0, 1.0, a1)];
         textures.push(Texture { width: 2, height: 1, texels, wrap_s: Wrap::ClampToEdge, wrap_t: Wrap::ClampToEdge });
-        mask.base_color_texture = Some(crate::tracer::material::TextureRef { texture: 0, tex_coord: 0 });
+        mask.base_color_texture = Some(crate::tracer::material::TextureRef::new(0, 0));
     }
     let light = Material { emission: Vec3::ONE, ..Material::lambert("light", Vec3::ZERO) };
     let cam = camera_at(Vec3::ZERO, Vec3::NEG_Z, 1.0);

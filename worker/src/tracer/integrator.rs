@@ -117,7 +117,7 @@ struct Bounce {
 
 impl<'a> Integrator<'a> {
     pub fn new(scene: &'a Scene, background: Vec3, settings: PathSettings) -> Integrator<'a> {
-        let lights = LightSet::new(&scene.lights, background, scene.bounds_radius);
+        let lights = LightSet::new(&scene.lights, background, scene.bounds_radius).with_textures(&scene.textures);
         Integrator { scene, lights, settings }
     }
 
@@ -220,7 +220,7 @@ impl<'a> Integrator<'a> {
 
     /// Next-event estimation: one light sample, MIS-weighted for `Mis`.
     fn direct<E: EffectSet>(&self, est: Estimator, s: &Surface, bsdf: &Bsdf, medium: Vec3, u_pick: f32, u: Vec2) -> Vec3 {
-        let Some(ls) = self.lights.sample(s.p.p, s.frame.n, u_pick, u) else { return Vec3::ZERO };
+        let Some(ls) = self.lights.sample_for::<E>(s.p.p, s.frame.n, u_pick, u) else { return Vec3::ZERO };
         let wi = s.frame.to_local(ls.wi);
         let side = ls.wi.dot(s.ng);
         // Only glass sees lights behind the surface, and only where both normals agree.

@@ -12,7 +12,19 @@
 //! intensity 1 in the file gives radiance of order 1 in the image. Point, spot and directional
 //! lights are delta lights: they are reached only by light sampling, never by a BSDF ray.
 //! A [`LightSet`] picks lights in proportion to their power, so dim lights cost little.
+//!
+//! A triangle whose material has an `emissiveTexture` emits radiance × texture(uv): light
+//! sampling picks a point uniformly on the triangle and evaluates the texture exactly there,
+//! the same function a BSDF ray that hits the point evaluates, so light-sampling and BSDF
+//! estimates (and their MIS weights, which depend on geometry and the choice probability only)
+//! agree. The power used to *choose* the light takes the texture's mean texel instead of the
+//! texels the triangle covers: any positive choice probability keeps the estimate unbiased;
+//! this one only costs variance when a triangle maps a region much brighter or darker than
+//! the whole image.
 use crate::tracer::accel::triangle_normal;
+use crate::tracer::effects::{AllEffects, EffectSet};
+pub use crate::tracer::texture::EmissiveTexture;
+use crate::tracer::texture::Texture;
 use crate::tracer::ray::ErrPoint;
 use crate::tracer::sampling::{Frame, cosine_hemisphere, luminance, uniform_triangle};
 use glam::{DVec3, Vec2, Vec3};
@@ -22,7 +34,18 @@ use std::f32::consts::PI;
 pub enum Light {
     /// `plane`: the f64 unit normal and offset n·v0, so that the height of a point above the
     /// plane (hence the cosine at the light) is exact for points in or near the plane.
-    Triangle { tri: u32, v: [Vec3; 3], n: Vec3, plane: (DVec3, f64), area: f32, radiance: Vec3, two_sided: bool },
+    /// `texture`: the material's emissive texture (radiance × texel), boxed to keep
+    /// untextured lights small.
+    Triangle {
+        tri: u32,
+        v: [Vec3; 3],
+        n: Vec3,
+        plane: (DVec3, f64),
+        area: f32,
+        radiance: Vec3,
+        two_sided: bool,
+        texture: Option<Box<EmissiveTexture>>,
+    },
     Point { position: Vec3, intensity: Vec3 },
     Spot { position: Vec3, axis: Vec3, intensity: Vec3, cos_inner: f32, cos_outer: f32 },
     Directional { dir: Vec3, irradiance: Vec3 },
@@ -59,15 +82,24 @@ impl Light {
         let area = (0.5 * (d[1] - d[0]).cross(d[2] - d[0]).length()) as f32;
         let plane = (n, n.dot(d[0]));
         (area > 0.0 && area.is_finite())
-            .then_some(Light::Triangle { tri, v: *v, n: n.as_vec3(), plane, area, radiance, two_sided })
+            .then_some(Light::Triangle { tri, v: *v, n: n.as_vec3(), plane, area, radiance, two_sided, texture: None })
+    }
+
+    /// This area light with an emissive texture.
+    pub fn with_texture(mut self, t: EmissiveTexture) -> Light {
+        if let Light::Triangle { texture, .. } = &mut self {
+            *texture = Some(Box::new(t));
+        }
+        self
     }
 
     /// Emitted power (luminance), used only to choose lights in proportion to it.
     fn power(&self, scene_radius: f32) -> f32 {
         let disc = PI * scene_radius * scene_radius;
         match self {
-            Light::Triangle { area, radiance, two_sided, .. } => {
-                luminance(*radiance) * area * PI * if *two_sided { 2.0 } else { 1.0 }
+            Light::Triangle { area, radiance, two_sided, texture, .. } => {
+                let mean = texture.as_ref().map_or(Vec3::ONE, |t| t.mean);
+                luminance(*radiance * mean) * area * PI * if *two_sided { 2.0 } else { 1.0 }
             }
             Light::Point { intensity, .. } => 4.0 * PI * luminance(*intensity),
             Light::Spot { intensity, cos_inner, cos_outer, .. } => {
@@ -78,10 +110,11 @@ impl Light {
         }
     }
 
-    /// Samples incident light at `p` (shading normal `n`), ignoring visibility and choice probability.
-    fn sample(&self, p: Vec3, n: Vec3, u: Vec2) -> Option<LightSample> {
+    /// Samples incident light at `p` (shading normal `n`), ignoring visibility and choice
+    /// probability; kernels without `E::SURFACES` ignore emissive textures.
+    fn sample<E: EffectSet>(&self, p: Vec3, n: Vec3, u: Vec2, textures: &[Texture]) -> Option<LightSample> {
         match *self {
-            Light::Triangle { v, n: ln, plane, area, radiance, two_sided, .. } => {
+            Light::Triangle { v, n: ln, plane, area, radiance, two_sided, ref texture, .. } => {
                 let (b1, b2) = uniform_triangle(u);
                 let q = ErrPoint::from_barycentric(&v, 1.0 - b1 - b2, b1, b2);
                 let d = q.p - p;
@@ -92,8 +125,12 @@ impl Light {
                     return None;
                 }
                 let pdf = dist2 / (cos_l.abs() * area);
+                let li = match texture {
+                    Some(t) if E::SURFACES => radiance * t.at(textures, [1.0 - b1 - b2, b1, b2]),
+                    _ => radiance,
+                };
                 (pdf.is_finite() && pdf > 0.0).then_some(LightSample {
-                    li: radiance,
+                    li,
                     wi,
                     pdf,
                     delta: false,
@@ -152,6 +189,8 @@ fn spot_falloff(cos_theta: f32, cos_inner: f32, cos_outer: f32) -> f32 {
 /// The lights of one render (the scene's plus the job's background), chosen by power.
 pub struct LightSet<'a> {
     scene_lights: &'a [Light],
+    /// The scene's textures (for emissive textures).
+    textures: &'a [Texture],
     background: Option<Light>,
     /// Choice probability per light; the background, if any, is last.
     pmf: Vec<f32>,
@@ -176,7 +215,12 @@ impl<'a> LightSet<'a> {
             acc
         });
         let cdf = cdf.collect();
-        LightSet { scene_lights, background, pmf, cdf }
+        LightSet { scene_lights, textures: &[], background, pmf, cdf }
+    }
+
+    /// This set reading emissive textures from `textures`.
+    pub fn with_textures(self, textures: &'a [Texture]) -> LightSet<'a> {
+        LightSet { textures, ..self }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -196,13 +240,19 @@ impl<'a> LightSet<'a> {
 
     /// Picks a light by power with `u_pick` and samples it from `p` with shading normal `n`.
     pub fn sample(&self, p: Vec3, n: Vec3, u_pick: f32, u: Vec2) -> Option<LightSample> {
+        self.sample_for::<AllEffects>(p, n, u_pick, u)
+    }
+
+    /// [`LightSet::sample`] as kernel `E` sees the lights.
+    #[inline]
+    pub fn sample_for<E: EffectSet>(&self, p: Vec3, n: Vec3, u_pick: f32, u: Vec2) -> Option<LightSample> {
         let last = self.cdf.len().checked_sub(1)?;
         let i = self.cdf.partition_point(|&c| c <= u_pick).min(last);
         let pick = self.pmf[i];
         if pick == 0.0 {
             return None;
         }
-        let mut s = self.light(i).sample(p, n, u)?;
+        let mut s = self.light(i).sample::<E>(p, n, u, self.textures)?;
         s.pdf *= pick;
         Some(s)
     }

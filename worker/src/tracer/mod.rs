@@ -10,6 +10,7 @@ pub mod film;
 pub mod integrator;
 pub mod light;
 pub mod material;
+pub mod normal_map;
 pub mod ray;
 pub mod render;
 pub mod sampler;

@@ -3,6 +3,9 @@
 //! Each pixel's samples are summed in sample-index order by a single thread, and each sample's
 //! random numbers depend only on (seed, pixel, sample index, dimension), so the result is
 //! bit-identical whatever the thread count or the machine.
+//!
+//! The scene chooses the kernel (its effects) and caps the path depth (its needed depth: 0 when
+//! nothing can scatter or nothing emits) unless the caller forces a kernel.
 use crate::dispatch_kernel;
 use crate::tracer::camera::RasterCamera;
 use crate::tracer::effects::{EffectSet, KernelBits};
@@ -52,8 +55,9 @@ pub fn render_tile_cancellable(
 }
 
 /// As [`render_tile_cancellable`] with the kernel chosen by the caller (None: the one the
-/// scene's effects select). A kernel with more effects than needed gives the same image in
-/// expectation, only slower (the "forced on" comparison, benchmarks).
+/// scene's effects select, and the path depth the scene needs, [`Scene::needed_depth`]).
+/// A kernel with more effects than needed gives the same image in expectation, only slower
+/// (the "forced on" comparison, benchmarks); a forced kernel also runs the job's full depth.
 pub fn render_tile_kernel(
     scene: &Scene,
     settings: &RenderSettings,
@@ -66,9 +70,13 @@ pub fn render_tile_kernel(
         return Err(format!("tile {tile:?} exceeds the {}×{} image", settings.width, settings.height));
     }
     let camera = scene.camera(settings.camera.as_deref())?;
+    let mut path = settings.path;
+    if kernel.is_none() {
+        path.max_depth = path.max_depth.min(scene.needed_depth(settings.background));
+    }
     let kernel = kernel.unwrap_or_else(|| scene.effects_for(camera, settings.background).kernel());
     let camera = camera.raster(settings.width, settings.height);
-    let integrator = Integrator::new(scene, settings.background, settings.path);
+    let integrator = Integrator::new(scene, settings.background, path);
     Ok(dispatch_kernel!(kernel, render_rows(&integrator, &camera, settings, tile, samples, cancel)))
 }
 

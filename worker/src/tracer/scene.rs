@@ -5,10 +5,10 @@
 use crate::tracer::accel::{Accel, BvhKind, triangle_normal};
 use crate::tracer::camera::Camera;
 use crate::tracer::effects::Effects;
-use crate::tracer::light::Light;
+use crate::tracer::light::{EmissiveTexture, Light};
 use crate::tracer::material::Material;
 use crate::tracer::texture::Texture;
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use std::sync::Arc;
 
 /// Triangle soup in world space; index `i` in every vector describes triangle `i`.
@@ -19,6 +19,9 @@ pub struct Mesh {
     pub normals: Vec<[Vec3; 3]>,
     /// Texture coordinates per corner for UV sets 0 and 1 (zero where absent).
     pub uvs: Vec<[[Vec2; 3]; 2]>,
+    /// `TANGENT` per corner (xyz, handedness w), or empty when no primitive has one; zero
+    /// for triangles of primitives without (normal maps then derive tangents from UVs).
+    pub tangents: Vec<[Vec4; 3]>,
     pub material: Vec<u32>,
 }
 
@@ -112,10 +115,15 @@ impl Scene {
     ) -> Scene {
         let mut lights = Vec::new();
         let mut tri_light = vec![NO_LIGHT; mesh.len()];
+        let mut means = vec![None; textures.len()];
         for (i, tri) in mesh.positions.iter().enumerate() {
             let m = &materials[mesh.material[i] as usize];
             if m.is_emissive()
-                && let Some(l) = Light::triangle(i as u32, tri, m.emission, m.double_sided) {
+                && let Some(mut l) = Light::triangle(i as u32, tri, m.emission, m.double_sided) {
+                    if let Some(t) = m.emissive_texture {
+                        let mean = *means[t.texture as usize].get_or_insert_with(|| textures[t.texture as usize].mean_rgb());
+                        l = l.with_texture(EmissiveTexture { texture: t, uvs: mesh.uvs[i], mean });
+                    }
                     tri_light[i] = lights.len() as u32;
                     lights.push(l);
                 }
@@ -142,6 +150,15 @@ impl Scene {
             e = e | Effects::BACKGROUND;
         }
         e
+    }
+
+    /// The most scattering events a path needs in a render with the job's `background`:
+    /// 0 when the camera can see nothing but emitters — no material scatters light, or
+    /// nothing emits at all (no lights, black background) — else unlimited (`u32::MAX`).
+    /// Renders use min(job's max_depth, this): paths stop where nothing more can be found.
+    pub fn needed_depth(&self, background: Vec3) -> u32 {
+        let dark = self.lights.is_empty() && !(background.max_element() > 0.0);
+        if self.effects.contains(Effects::NO_SCATTERING) || dark { 0 } else { u32::MAX }
     }
 
     pub fn camera(&self, name: Option<&str>) -> Result<&Camera, String> {

@@ -1,8 +1,16 @@
 //! What the integrator knows about a hit: position, frames, BSDF, emission — and the alpha
 //! test that decides whether a triangle is hit at all.
+//!
+//! Texture coordinates (both UV sets), textured emission and normal maps are computed only by
+//! kernels with `E::SURFACES` (the scene has textures, normal maps or non-Lambert surfaces);
+//! the matte kernel reads none of them. Normal maps perturb the shading normal after it is
+//! turned to the geometric normal's side and before two-sided flipping, and are then kept
+//! consistent with the geometric normal and the viewer ([`normal_map::keep_consistent`]).
 use crate::tracer::bsdf::Bsdf;
 use crate::tracer::effects::EffectSet;
 use crate::tracer::integrator::Integrator;
+use crate::tracer::material::{Material, NormalTexture};
+use crate::tracer::normal_map;
 use crate::tracer::ray::{ErrPoint, Ray};
 use crate::tracer::sampling::Frame;
 use glam::{Vec2, Vec3};
@@ -47,17 +55,24 @@ impl Integrator<'_> {
         }?;
         let mesh = &self.scene.mesh;
         let i = hit.prim as usize;
-        let b0 = 1.0 - hit.b1 - hit.b2;
+        let b = [1.0 - hit.b1 - hit.b2, hit.b1, hit.b2];
         let v = &mesh.positions[i];
-        let p = ErrPoint::from_barycentric(v, b0, hit.b1, hit.b2);
+        let p = ErrPoint::from_barycentric(v, b[0], b[1], b[2]);
         let mut ng = self.scene.face_normals[i];
         let nv = &mesh.normals[i];
-        let mut ns = (nv[0] * b0 + nv[1] * hit.b1 + nv[2] * hit.b2).normalize_or(ng);
+        let mut ns = (nv[0] * b[0] + nv[1] * b[1] + nv[2] * b[2]).normalize_or(ng);
         let wo_world = -ray.dir.normalize();
         let material = &self.scene.materials[mesh.material[i] as usize];
-        let le = material.emitted(ng, wo_world);
+        let uvs = if E::SURFACES || E::ALPHA { self.uvs(i, b) } else { [Vec2::ZERO; 2] };
+        let mut le = material.emitted(ng, wo_world);
+        if E::SURFACES && le != Vec3::ZERO {
+            le = material.emission_at(&uvs, &self.scene.textures);
+        }
         if ns.dot(ng) < 0.0 {
             ns = -ns;
+        }
+        if E::SURFACES && let Some(nt) = &material.normal_texture {
+            ns = self.normal_mapped(nt, i, b, &uvs, ns);
         }
         let front = ng.dot(wo_world) > 0.0;
         let glass = if E::GLASS { material.glass } else { None };
@@ -66,9 +81,11 @@ impl Integrator<'_> {
             ng = -ng;
             ns = -ns;
         }
-        let uv = if E::SURFACES || E::ALPHA { self.uv(material.base_color_texture.map_or(0, |t| t.tex_coord), i, hit.b1, hit.b2) } else { Vec2::ZERO };
+        if E::SURFACES && material.normal_texture.is_some() && (front || two_sided) {
+            ns = normal_map::keep_consistent(ns, ng, wo_world);
+        }
         let bsdf = (front || two_sided)
-            .then(|| material.bsdf_for::<E>(uv, &self.scene.textures, u_glass, front))
+            .then(|| material.bsdf_for::<E>(&uvs, &self.scene.textures, u_glass, front))
             .filter(|b| !b.is_black());
         let frame = Frame::from_normal(ns);
         let wo = frame.to_local(wo_world);
@@ -77,18 +94,31 @@ impl Integrator<'_> {
         Some(Surface { p, ng, frame, wo, bsdf, le, light: self.scene.tri_light[i], dist, front, sigma_a })
     }
 
-    /// Texture coordinates of UV set `set` at barycentrics (b1, b2) of triangle `i`.
-    fn uv(&self, set: u32, i: usize, b1: f32, b2: f32) -> Vec2 {
-        let uvs = &self.scene.mesh.uvs[i][set.min(1) as usize];
-        uvs[0] * (1.0 - b1 - b2) + uvs[1] * b1 + uvs[2] * b2
+    /// Both UV sets at barycentrics `b` of triangle `i`.
+    pub(crate) fn uvs(&self, i: usize, b: [f32; 3]) -> [Vec2; 2] {
+        self.scene.mesh.uvs[i].map(|t| t[0] * b[0] + t[1] * b[1] + t[2] * b[2])
+    }
+
+    /// The shading normal `ns` (front side) perturbed by the material's normal map.
+    fn normal_mapped(&self, nt: &NormalTexture, i: usize, b: [f32; 3], uvs: &[Vec2; 2], ns: Vec3) -> Vec3 {
+        let mesh = &self.scene.mesh;
+        let tangent = match mesh.tangents.get(i) {
+            Some(t) if t[0].w != 0.0 => normal_map::tangent_from_attribute(t, b, ns),
+            _ => {
+                let uv = mesh.uvs[i][nt.texture.tex_coord.min(1) as usize].map(|uv| nt.texture.transform.apply(uv));
+                normal_map::tangent_from_uvs(&mesh.positions[i], &uv, ns)
+            }
+        };
+        let Some(tangent) = tangent else { return ns };
+        normal_map::perturb(ns, tangent, nt.texture.sample(&self.scene.textures, uvs).truncate(), nt.scale)
     }
 
     /// Whether the alpha test keeps the hit at (b1, b2) on triangle `prim`.
     pub(crate) fn opaque(&self, prim: u32, b1: f32, b2: f32) -> bool {
-        let material = &self.scene.materials[self.scene.mesh.material[prim as usize] as usize];
+        let material: &Material = &self.scene.materials[self.scene.mesh.material[prim as usize] as usize];
         let Some(cutoff) = material.alpha_cutoff else { return true };
-        let uv = self.uv(material.base_color_texture.map_or(0, |t| t.tex_coord), prim as usize, b1, b2);
-        material.alpha_at(uv, &self.scene.textures) >= cutoff
+        let uvs = self.uvs(prim as usize, [1.0 - b1 - b2, b1, b2]);
+        material.alpha_at(&uvs, &self.scene.textures) >= cutoff
     }
 
     /// Shadow-ray test as kernel `E` sees it (alpha-cut triangles let light through).
