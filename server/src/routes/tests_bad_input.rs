@@ -67,7 +67,7 @@ fn scene_cases() -> Vec<Case> {
         case("NaN vertex", up(), GLB, raw(scene([[f32::NAN, 0.0, 0.0], TRIANGLE[1], TRIANGLE[2]], &[], None)), S::UNPROCESSABLE_ENTITY, "POSITION 0 is not finite"),
         case("infinite vertex", up(), GLB, raw(scene([TRIANGLE[0], TRIANGLE[1], [0.0, f32::INFINITY, 0.0]], &[], None)), S::UNPROCESSABLE_ENTITY, "POSITION 2 is not finite"),
         case("texture index out of range", up(), GLB, raw(textured(&png_declaring(1, 1), 5)), S::UNPROCESSABLE_ENTITY, "baseColorTexture.index: Index out of bounds"),
-        case("image not an image", up(), GLB, raw(textured(b"not a png at all", 0)), S::UNPROCESSABLE_ENTITY, "texture 0 (image 0)"),
+        case("image not an image", up(), GLB, raw(textured(b"not a png at all", 0)), S::UNPROCESSABLE_ENTITY, "image 0: not a PNG or JPEG image"),
         case("huge declared image", up(), GLB, raw(textured(&png_declaring(100_000, 100_000), 0)), S::UNPROCESSABLE_ENTITY, "image is 100000×100000"),
         case("external buffer file", up(), JSON, raw(with_buffer_uri("triangle.bin")), S::UNPROCESSABLE_ENTITY, "external file \"triangle.bin\""),
         case("path traversal URI", up(), JSON, raw(with_buffer_uri("../../etc/passwd")), S::UNPROCESSABLE_ENTITY, "leaves the scene's directory"),
