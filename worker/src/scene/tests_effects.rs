@@ -11,19 +11,17 @@ fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../scenes/{name}.gltf"))
 }
 
-const BUNDLED: [&str; 11] = [
-    "absorption",
-    "alpha-mask",
-    "cornell-box",
-    "depth-of-field",
-    "emitters-only",
-    "furnace",
-    "glass",
-    "glossy",
-    "phong",
-    "punctual",
-    "textured",
-];
+/// Every scene in `scenes/` (all of them are bundled), by name.
+fn bundled() -> Vec<String> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.unwrap().file_name().to_str()?.strip_suffix(".gltf").map(str::to_string))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 13, "{names:?}");
+    names
+}
 
 #[test]
 fn each_effect_scene_reports_its_effect_and_the_matte_scenes_do_not() {
@@ -93,8 +91,8 @@ fn mean_var(p: &PixelSums, c: usize) -> (f64, f64) {
 #[test]
 fn gated_and_all_effects_renders_agree_within_error_bars() {
     let never = AtomicBool::new(false);
-    for name in BUNDLED {
-        let scene = load_path(&scene_path(name)).unwrap();
+    for name in bundled() {
+        let scene = load_path(&scene_path(&name)).unwrap();
         let s = settings(Estimator::Mis, Roulette::default(), 24, glam::Vec3::ZERO);
         let render = |k| render_tile_kernel(&scene, &s, s.full_frame(), 0..64, &never, k).unwrap().unwrap();
         let (gated, all) = (render(None), render(Some(KernelBits::ALL)));
