@@ -514,15 +514,21 @@ def write(doc: dict, path: str) -> None:
 # --------------------------------------------------------------------------
 
 
-def scene_cornell_box() -> dict:
-    g = Gltf("Cornell box")
+def cornell_materials(g: "Gltf", light_scale: float = 1.0) -> dict:
+    """The Cornell box's materials (the light's radiance times `light_scale`), by name."""
     mats = {}
     for name, m in CORNELL_MATERIALS.items():
         if m["radiance"] is None:
             mats[name] = g.material(lambert(name, m["albedo"]))
         else:
-            e, s = radiance_to_emissive(m["radiance"])
+            e, s = radiance_to_emissive(tuple(c * light_scale for c in m["radiance"]))
             mats[name] = g.material(lambert(name, m["albedo"], e, s))
+    return mats
+
+
+def scene_cornell_box() -> dict:
+    g = Gltf("Cornell box")
+    mats = cornell_materials(g)
     for obj in cornell_box_objects():
         mesh = g.flat_mesh(obj["name"], obj["triangles"], mats[obj["material"]])
         g.node(obj["name"], mesh=mesh)
@@ -544,13 +550,7 @@ def scene_cornell_small_light() -> dict:
     cx, cz = (big[0][0] + big[1][0]) / 2.0, (big[0][1] + big[1][1]) / 2.0
     h = CORNELL_SMALL_LIGHT_HALF_MM
     area_ratio = (130.0 * 105.0) / (2.0 * h) ** 2
-    mats = {}
-    for name, m in CORNELL_MATERIALS.items():
-        if m["radiance"] is None:
-            mats[name] = g.material(lambert(name, m["albedo"]))
-        else:
-            e, s = radiance_to_emissive(tuple(c * area_ratio for c in m["radiance"]))
-            mats[name] = g.material(lambert(name, m["albedo"], e, s))
+    mats = cornell_materials(g, area_ratio)
     for obj in cornell_box_objects():
         tris = obj["triangles"]
         if obj["name"] == "light":
@@ -780,13 +780,7 @@ def scene_cornell_animated() -> dict:
     """The Cornell box with a two-coloured ball rolling (without slipping) along -x in front of
     the tall block, and a camera dolly forward; one animation "roll", 1 s long."""
     g = Gltf("Cornell box, animated")
-    mats = {}
-    for name, m in CORNELL_MATERIALS.items():
-        if m["radiance"] is None:
-            mats[name] = g.material(lambert(name, m["albedo"]))
-        else:
-            e, s = radiance_to_emissive(m["radiance"])
-            mats[name] = g.material(lambert(name, m["albedo"], e, s))
+    mats = cornell_materials(g)
     for obj in cornell_box_objects():
         g.node(obj["name"], mesh=g.flat_mesh(obj["name"], obj["triangles"], mats[obj["material"]]))
     # The ball: a UV sphere split into two halves of different colours, so its rotation shows.
