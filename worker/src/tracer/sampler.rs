@@ -254,8 +254,35 @@ fn sobol_dim0(index: u32) -> u32 {
     index.reverse_bits()
 }
 
-/// Sobol dimension 1 via its generator matrix (direction vectors).
+/// Sobol dimension 1: the generator matrix applied a byte at a time through
+/// [`SOBOL_DIM1_BYTES`] (4 lookups instead of a loop over up to 32 bits: this
+/// ran in ~25 % of render time, the index being an Owen-scrambled, i.e.
+/// random, 32-bit number). Same bits as [`sobol_dim1_by_bits`].
 fn sobol_dim1(index: u32) -> u32 {
+    let t = &SOBOL_DIM1_BYTES;
+    t[0][(index & 0xff) as usize] ^ t[1][(index >> 8 & 0xff) as usize] ^ t[2][(index >> 16 & 0xff) as usize] ^ t[3][(index >> 24) as usize]
+}
+
+/// `SOBOL_DIM1_BYTES[k][b]`: the XOR of the direction vectors selected by
+/// byte value `b` in byte `k` of the index (the matrix is linear over GF(2),
+/// so the four bytes' contributions XOR together).
+const SOBOL_DIM1_BYTES: [[u32; 256]; 4] = {
+    let mut t = [[0u32; 256]; 4];
+    let mut k = 0;
+    while k < 4 {
+        let mut b = 0;
+        while b < 256 {
+            t[k][b] = sobol_dim1_by_bits((b as u32) << (8 * k));
+            b += 1;
+        }
+        k += 1;
+    }
+    t
+};
+
+/// Sobol dimension 1 via its generator matrix, one direction vector per set
+/// bit (builds the table; the reference the tests compare against).
+const fn sobol_dim1_by_bits(index: u32) -> u32 {
     let mut bits = index;
     let mut result = 0;
     let mut k = 0;

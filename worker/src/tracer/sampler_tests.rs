@@ -356,3 +356,17 @@ fn frame_seed_keeps_stills_and_separates_frames() {
     // Each flip count is Binomial(64, 1/2): mean 32, sd 4; the mean of 512 has sd 0.18.
     assert!((mean - 32.0).abs() < 1.5, "mean bit flips {mean}");
 }
+
+#[test]
+fn sobol_dim1_by_bytes_equals_the_generator_matrix_bit_by_bit() {
+    let mut x = 0x9e37_79b9_u32;
+    for i in 0..100_000u32 {
+        // Every single bit, small indices, and a stream of pseudo-random 32-bit indices.
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        for index in [i, 1u32.rotate_left(i % 32), x] {
+            assert_eq!(sobol_dim1(index), sobol_dim1_by_bits(index), "index {index:#x}");
+        }
+    }
+}
