@@ -117,7 +117,9 @@ fn fifty_concurrent_jobs_survive_random_worker_kills_with_exact_sample_counts() 
             let req = JobRequest { seed: Some(i as u64), tile_size: Some(16), batch_spp: Some(4), ..cornell(32 + (i % 3) * 8, 8 + (i % 4) * 8) };
             ids.push((c.submit(&req).await.unwrap().id, req));
         }
-        // A cheap xorshift: the kill schedule is random but the same on every run.
+        // Kills at fixed points of overall progress (5 %, 10 %, … 40 %), so how fast the farm
+        // renders does not change how often it is hit; which worker dies comes from a cheap
+        // xorshift, random but the same on every run.
         let mut rng = 0x9e3779b97f4a7c15u64;
         let mut kills = 0;
         loop {
@@ -126,15 +128,16 @@ fn fifty_concurrent_jobs_survive_random_worker_kills_with_exact_sample_counts() 
                 break;
             }
             assert!(t0.elapsed() < Duration::from_secs(100), "the soak did not finish in time");
-            tokio::time::sleep(Duration::from_millis(250)).await;
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            if kills < 8 && rng % 2 == 0 {
+            let progress = jobs.iter().map(|j| j.progress.fraction).sum::<f64>() / jobs.len() as f64;
+            while kills < 8 && progress >= 0.05 * f64::from(kills + 1) {
+                rng ^= rng << 13;
+                rng ^= rng >> 7;
+                rng ^= rng << 17;
                 farm.kill_worker((rng >> 8) as usize % farm.workers.len());
                 farm.add_worker();
                 kills += 1;
             }
+            tokio::time::sleep(Duration::from_millis(100)).await;
         }
         assert!(kills >= 4, "the schedule must really kill workers ({kills})");
         for (id, req) in &ids {
