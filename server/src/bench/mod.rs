@@ -1,4 +1,5 @@
 //! Benchmark studies whose code is shared by `tessera-bench`, `tessera bench` and the tests that
 //! keep them working. Figures are printed and written as documents; nothing here asserts speed.
 pub mod accuracy;
+pub mod bvh;
 pub mod frames;

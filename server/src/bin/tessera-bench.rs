@@ -9,6 +9,8 @@
 //! `tessera-bench accuracy`   — the accuracy study (issue #10): relMSE vs time per scene, estimator,
 //!                              sampler and roulette, plus tile/batch sizes through a local farm;
 //!                              writes docs/accuracy/ (tessera_server::bench::accuracy).
+//! `tessera-bench bvh`        — a generated ~1M-triangle scene: BVH build time, incoherent rays per
+//!                              second (one core, all cores), peak resident memory.
 //! `tessera-bench frames`     — an animation job on local workers with frame affinity on and off:
 //!                              time per frame and the scene builds/refits workers reported.
 use clap::{Parser, Subcommand};
@@ -58,6 +60,8 @@ enum Cmd {
     /// study's scenes, and time to a noise target vs tile and batch size through a local farm.
     /// Writes a markdown report and one SVG plot per scene.
     Accuracy(tessera_server::bench::accuracy::Options),
+    /// A generated ~1M-triangle scene: BVH build time, incoherent rays/s, peak memory.
+    Bvh(tessera_server::bench::bvh::BvhBench),
     /// An animation job (frames 0..N−1) on local workers with frame affinity on and off.
     Frames(tessera_server::bench::frames::FramesBench),
     /// Unit round trips per second through a one-core coordinator.
@@ -79,6 +83,7 @@ fn main() -> anyhow::Result<()> {
         Cmd::Effects { scene, size, spp, repeats } => effects(&scene, size, spp, repeats),
         Cmd::Accuracy(options) => tessera_server::bench::accuracy::run(options).map(|_| ()),
         Cmd::Frames(b) => tessera_server::bench::frames::run(&b),
+        Cmd::Bvh(b) => tessera_server::bench::bvh::run(&b),
     }
 }
 
