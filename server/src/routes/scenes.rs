@@ -1,5 +1,6 @@
 //! `/v1/scenes`: upload (content-addressed) and download by hash.
 use crate::error::AppError;
+use crate::scenes::SceneMeta;
 use crate::state::AppState;
 use axum::body::Bytes;
 use axum::extract::{Path, State};
@@ -21,8 +22,8 @@ pub async fn upload(State(st): State<AppState>, headers: HeaderMap, body: Bytes)
         .await
         .map_err(AppError::internal)?
         .map_err(|e| AppError::new(StatusCode::UNPROCESSABLE_ENTITY, e))?;
-    let body = SceneUploaded { id: meta.id.clone(), triangles: meta.triangles, effects: meta.effects, cameras: meta.cameras, animations: meta.animations };
-    Ok((StatusCode::CREATED, [(header::LOCATION, format!("/v1/scenes/{}", meta.id))], axum::Json(body)))
+    let location = format!("/v1/scenes/{}", meta.id);
+    Ok((StatusCode::CREATED, [(header::LOCATION, location)], axum::Json(described(meta))))
 }
 
 /// Every scene a job can use: the bundled ones (by name) and the uploaded ones (by id).
@@ -37,7 +38,7 @@ pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<SceneListing>> {
     responses((status = 200, body = SceneUploaded), (status = 404, body = Problem)))]
 pub async fn describe(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<SceneUploaded>, AppError> {
     let m = st.scenes.resolve(&id).ok_or_else(|| AppError::not_found(format!("no scene {id:?}")))?;
-    Ok(axum::Json(SceneUploaded { id: m.id, triangles: m.triangles, effects: m.effects, cameras: m.cameras, animations: m.animations }))
+    Ok(axum::Json(described(m)))
 }
 
 /// The scene's bytes, for workers.
@@ -46,4 +47,9 @@ pub async fn describe(State(st): State<AppState>, Path(id): Path<String>) -> Res
 pub async fn data(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
     let bytes = st.scenes.bytes(&id).ok_or_else(|| AppError::not_found(format!("no scene {id:?}")))?;
     Ok(([(header::CONTENT_TYPE, "application/octet-stream")], bytes))
+}
+
+/// A stored scene as the API describes it.
+fn described(m: SceneMeta) -> SceneUploaded {
+    SceneUploaded { id: m.id, triangles: m.triangles, effects: m.effects, cameras: m.cameras, animations: m.animations }
 }
