@@ -54,9 +54,10 @@ pub async fn frames_zip(State(st): State<AppState>, Path(id): Path<String>) -> R
         let job = s.job(&id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
         (0..job.frame_count()).map(|i| job.frame_number(i)).collect::<Vec<_>>()
     };
+    let finalized = finalize_if_done(&st, &id).await?;
     let mut files = Vec::with_capacity(numbers.len());
     for (index, n) in numbers.into_iter().enumerate() {
-        files.push((format!("frame_{n:04}.exr"), frame_exr_bytes(&st, &id, index).await?));
+        files.push((format!("frame_{n:04}.exr"), exr_bytes(&st, &id, index, finalized).await?));
     }
     let zip = tokio::task::spawn_blocking(move || zip_stored(files)).await.map_err(AppError::internal)?.map_err(AppError::internal)?;
     let disposition = format!("attachment; filename=\"{id}-frames.zip\"");
@@ -83,16 +84,28 @@ fn frame_index(st: &AppState, id: &str, n: u32) -> Result<usize, AppError> {
 }
 
 async fn frame_exr_bytes(st: &AppState, id: &str, index: usize) -> Result<Vec<u8>, AppError> {
+    let finalized = finalize_if_done(st, id).await?;
+    exr_bytes(st, id, index, finalized).await
+}
+
+/// True when the job is done and its frame files are written (written now if it finished a
+/// moment ago and they are not yet).
+async fn finalize_if_done(st: &AppState, id: &str) -> Result<bool, AppError> {
     let done = st.scheduler.lock().expect("lock").job(id).is_some_and(|j| j.state == tessera_proto::JobState::Done);
     if done {
-        // The job may have finished a moment ago, its files not yet written: write them now.
         let (st2, id2) = (st.clone(), id.to_string());
         tokio::task::spawn_blocking(move || st2.finalize(&id2)).await.map_err(AppError::internal)?;
-        if let Some(path) = st.frame_image_path(id, index)
-            && let Ok(bytes) = tokio::fs::read(path).await
-        {
-            return Ok(bytes);
-        }
+    }
+    Ok(done)
+}
+
+/// A frame's EXR: its final file when `finalized`, else the current merge encoded now.
+async fn exr_bytes(st: &AppState, id: &str, index: usize, finalized: bool) -> Result<Vec<u8>, AppError> {
+    if finalized
+        && let Some(path) = st.frame_image_path(id, index)
+        && let Ok(bytes) = tokio::fs::read(path).await
+    {
+        return Ok(bytes);
     }
     let snapshot = snapshot(st, id, index)?;
     tokio::task::spawn_blocking(move || snapshot.encode_exr()).await.map_err(AppError::internal)?.map_err(AppError::internal)
