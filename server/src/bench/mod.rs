@@ -3,3 +3,4 @@
 pub mod accuracy;
 pub mod bvh;
 pub mod frames;
+pub mod mitsuba;

@@ -13,6 +13,8 @@
 //!                              second (one core, all cores), peak resident memory.
 //! `tessera-bench frames`     — an animation job on local workers with frame affinity on and off:
 //!                              time per frame and the scene builds/refits workers reported.
+//! `tessera-bench mitsuba`    — time to quality (relMSE × seconds) on the Cornell box against
+//!                              Mitsuba 3 in the same run (tessera_server::bench::mitsuba).
 use clap::{Parser, Subcommand};
 use std::time::{Duration, Instant};
 use tessera_proto::{JobRequest, PartialSums, TileRect, WirePixel};
@@ -64,6 +66,8 @@ enum Cmd {
     Bvh(tessera_server::bench::bvh::BvhBench),
     /// An animation job (frames 0..N−1) on local workers with frame affinity on and off.
     Frames(tessera_server::bench::frames::FramesBench),
+    /// Time to quality (relMSE × seconds) on the Cornell box, Tessera vs Mitsuba 3 in one run.
+    Mitsuba(tessera_server::bench::mitsuba::MitsubaBench),
     /// Unit round trips per second through a one-core coordinator.
     Roundtrips {
         #[arg(long, default_value_t = 5.0)]
@@ -84,6 +88,7 @@ fn main() -> anyhow::Result<()> {
         Cmd::Accuracy(options) => tessera_server::bench::accuracy::run(options).map(|_| ()),
         Cmd::Frames(b) => tessera_server::bench::frames::run(&b),
         Cmd::Bvh(b) => tessera_server::bench::bvh::run(&b),
+        Cmd::Mitsuba(b) => tessera_server::bench::mitsuba::run(&b).map(|_| ()),
     }
 }
 

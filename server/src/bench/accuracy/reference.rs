@@ -50,9 +50,16 @@ impl Reference {
 
 /// Loads the reference of `name` from `cache` or renders (and caches) it.
 pub fn rendered(scene: &Scene, scene_bytes: &[u8], name: &str, size: u32, spp: u32, cache: &Path) -> anyhow::Result<Reference> {
+    rendered_with(scene, scene_bytes, name, size, spp, SamplerKind::Sobol, cache)
+}
+
+/// As [`rendered`], with the reference's sampler chosen: an independent-sampler reference has an
+/// unbiased per-pixel variance estimate, so its noise can be subtracted from a measured error.
+pub fn rendered_with(scene: &Scene, scene_bytes: &[u8], name: &str, size: u32, spp: u32, sampler: SamplerKind, cache: &Path) -> anyhow::Result<Reference> {
     let hash = hex::encode(&Sha256::digest(scene_bytes)[..6]);
-    let file = cache.join(format!("{name}-{hash}-{size}px-{spp}spp-seed{REFERENCE_SEED:x}-v{CACHE_VERSION}.bin"));
-    let description = format!("mis+sobol {spp} spp");
+    let tag = if sampler == SamplerKind::Sobol { String::new() } else { format!("-{sampler}") };
+    let file = cache.join(format!("{name}-{hash}-{size}px-{spp}spp{tag}-seed{REFERENCE_SEED:x}-v{CACHE_VERSION}.bin"));
+    let description = format!("mis+{sampler} {spp} spp");
     if let Some((means, variance)) = read(&file, size, spp) {
         return Ok(Reference { means, variance, description });
     }
@@ -60,7 +67,7 @@ pub fn rendered(scene: &Scene, scene_bytes: &[u8], name: &str, size: u32, spp: u
         width: size,
         height: size,
         seed: REFERENCE_SEED,
-        sampler: SamplerKind::Sobol,
+        sampler,
         path: PathSettings::default(),
         background: glam::Vec3::ZERO,
         camera: None,

@@ -1,0 +1,233 @@
+//! `tessera-bench mitsuba`: time to quality against Mitsuba 3 in one run (issue #9).
+//!
+//! The yardstick is relMSE × seconds to render the Cornell box (lower is better): the error of
+//! an image against a shared reference times the time it took. Both renderers render the same
+//! triangles, albedos, emitter and camera (`tests/reference/mitsuba_render.py` builds Mitsuba's
+//! scene from `scenes/generate.py`, the source of the bundled glTF) with a box filter and
+//! unbounded depth, at the same spp, on the same cores, one after the other.
+//!
+//! - Reference: Tessera `mis` + independent sampler at `--reference-spp` with a seed no measured
+//!   render uses, cached under `--cache`. Its per-pixel variance is known without bias, so its
+//!   expected contribution to each squared error is subtracted; the error left is the measured
+//!   image's own. (Mitsuba's image mean agrees with ours to 0.1 %, `tests/tests/mitsuba.rs`.)
+//! - relMSE: mean over pixels and channels of (value − ref)² / (ref + 0.01)², as in the accuracy
+//!   study.
+//! - Time: rendering only. Tessera: `render_tile` over the full frame on all cores (no farm);
+//!   Mitsuba: one `mi.render` call after a warm-up render has compiled its kernels.
+//! - Each configuration renders `--repeats` times with different seeds; the relMSE is the mean
+//!   over them and the time the fastest (this machine's run-to-run noise is one-sided).
+//!
+//! Without Mitsuba the command renders Tessera's side and says how to install it.
+use super::accuracy::reference::{self, Reference};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+use tessera_worker::tracer::integrator::PathSettings;
+use tessera_worker::tracer::sampler::SamplerKind;
+use tessera_worker::tracer::{PixelSums, RenderSettings, Scene, render_tile};
+
+#[derive(Clone, Debug, clap::Args)]
+pub struct MitsubaBench {
+    /// Image width and height in pixels.
+    #[arg(long, default_value_t = 256)]
+    pub size: u32,
+    /// Samples per pixel to compare at, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "64,256")]
+    pub spp: Vec<u32>,
+    /// Renders per configuration (seeds 1, 2, …): mean relMSE, fastest time.
+    #[arg(long, default_value_t = 3)]
+    pub repeats: u32,
+    /// Samples per pixel of the shared reference (rendered once, then cached).
+    #[arg(long, default_value_t = 8192)]
+    pub reference_spp: u32,
+    /// Mitsuba samplers to try, comma-separated (the best is the yardstick).
+    #[arg(long, value_delimiter = ',', default_value = "independent,stratified,multijitter,ldsampler")]
+    pub samplers: Vec<String>,
+    /// Mitsuba variant.
+    #[arg(long, default_value = "llvm_ad_rgb")]
+    pub variant: String,
+    /// Python interpreter with the `mitsuba` package.
+    #[arg(long, default_value = "python3")]
+    pub python: String,
+    /// Directory of cached reference renders.
+    #[arg(long, default_value = "target/accuracy-cache")]
+    pub cache: PathBuf,
+}
+
+/// One configuration's figures.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub renderer: &'static str,
+    pub sampler: String,
+    pub spp: u32,
+    pub seconds: f64,
+    pub rel_mse: f64,
+}
+
+impl Row {
+    pub fn product(&self) -> f64 {
+        self.rel_mse * self.seconds
+    }
+}
+
+const SCENE: &str = "cornell-box";
+const INSTALL: &str = "pip install mitsuba numpy OpenEXR; apt-get install -y libllvm19; \
+                       export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1";
+
+pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
+    anyhow::ensure!(b.size > 0 && b.repeats > 0 && b.reference_spp > 0 && !b.spp.contains(&0), "sizes, spp and repeats must be positive");
+    let bytes = crate::bundled::get(SCENE).expect("the Cornell box is bundled");
+    let scene = tessera_worker::scene::load_bytes(bytes, None)?;
+    let reference = reference::rendered_with(&scene, bytes, SCENE, b.size, b.reference_spp, SamplerKind::Independent, &b.cache)?;
+    println!(
+        "time to quality: {SCENE} {0}×{0}, {1} threads; reference {2} (its noise, relMSE {3:.2e}, subtracted)",
+        b.size,
+        rayon::current_num_threads(),
+        reference.description,
+        reference.noise_floor()
+    );
+    let mut rows = Vec::new();
+    let mut mitsuba_missing = None;
+    for &spp in &b.spp {
+        for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
+            rows.push(tessera_row(&scene, &reference, b, spp, sampler)?);
+            print_row(rows.last().expect("pushed"));
+        }
+        if mitsuba_missing.is_some() {
+            continue;
+        }
+        match mitsuba_rows(&reference, b, spp) {
+            Ok(mut found) => {
+                found.iter().for_each(print_row);
+                rows.append(&mut found);
+            }
+            Err(e) => mitsuba_missing = Some(e),
+        }
+    }
+    if let Some(e) = mitsuba_missing {
+        println!("Mitsuba 3 was not run ({e:#}).\nTo compare, install it: {INSTALL}");
+        return Ok(rows);
+    }
+    for &spp in &b.spp {
+        print_ratio(&rows, spp);
+    }
+    Ok(rows)
+}
+
+fn print_row(r: &Row) {
+    println!(
+        "  {:<8} {:<12} {:>5} spp {:>8.3} s  relMSE {:.3e}  relMSE·s {:.3e}",
+        r.renderer,
+        r.sampler,
+        r.spp,
+        r.seconds,
+        r.rel_mse,
+        r.product()
+    );
+}
+
+fn print_ratio(rows: &[Row], spp: u32) {
+    let best = |renderer: &str| {
+        rows.iter().filter(|r| r.renderer == renderer && r.spp == spp).min_by(|a, b| a.product().total_cmp(&b.product()))
+    };
+    if let (Some(t), Some(m)) = (best("tessera"), best("mitsuba")) {
+        println!(
+            "{spp} spp: tessera {} {:.3e} ÷ mitsuba {} {:.3e} = ratio {:.3} (target ≤ 0.33); time {:.2}×, relMSE {:.2}×",
+            t.sampler,
+            t.product(),
+            m.sampler,
+            m.product(),
+            t.product() / m.product(),
+            t.seconds / m.seconds,
+            t.rel_mse / m.rel_mse
+        );
+    }
+}
+
+fn tessera_row(scene: &Scene, reference: &Reference, b: &MitsubaBench, spp: u32, sampler: SamplerKind) -> anyhow::Result<Row> {
+    let (mut seconds, mut error) = (f64::INFINITY, 0.0);
+    for r in 0..b.repeats {
+        let settings = RenderSettings {
+            width: b.size,
+            height: b.size,
+            seed: 1 + r as u64,
+            sampler,
+            path: PathSettings::default(),
+            background: glam::Vec3::ZERO,
+            camera: None,
+        };
+        let t = Instant::now();
+        let sums = render_tile(scene, &settings, settings.full_frame(), 0..spp).map_err(anyhow::Error::msg)?;
+        seconds = seconds.min(t.elapsed().as_secs_f64());
+        error += rel_mse_above_reference(sums.pixels.iter().map(PixelSums::mean), reference);
+    }
+    Ok(Row { renderer: "tessera", sampler: sampler.name().into(), spp, seconds, rel_mse: error / b.repeats as f64 })
+}
+
+/// relMSE with the reference's own expected share removed: E[(x − r)²] = E[(x − μ)²] + Var(r)
+/// for a reference r independent of x.
+pub fn rel_mse_above_reference(means: impl Iterator<Item = [f64; 3]>, reference: &Reference) -> f64 {
+    let mut acc = 0.0;
+    let mut n = 0usize;
+    for ((m, r), v) in means.zip(&reference.means).zip(&reference.variance) {
+        for c in 0..3 {
+            let d = r[c] + 0.01;
+            acc += ((m[c] - r[c]).powi(2) - v[c]) / (d * d);
+        }
+        n += 3;
+    }
+    acc / n.max(1) as f64
+}
+
+/// Runs the Mitsuba script at `spp` for every sampler and reads back its images.
+fn mitsuba_rows(reference: &Reference, b: &MitsubaBench, spp: u32) -> anyhow::Result<Vec<Row>> {
+    let out_dir = std::env::temp_dir().join(format!("tessera-bench-mitsuba-{}", std::process::id()));
+    let mut cmd = Command::new(&b.python);
+    cmd.arg(script_path()?)
+        .args(["--variant", &b.variant, "--size", &b.size.to_string(), "--spp", &spp.to_string()])
+        .args(["--samplers", &b.samplers.join(","), "--repeats", &b.repeats.to_string(), "--seed", "1"])
+        .arg("--out-dir")
+        .arg(&out_dir);
+    if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() {
+        let debian = Path::new("/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1");
+        if debian.exists() {
+            cmd.env("DRJIT_LIBLLVM_PATH", debian);
+        }
+    }
+    let output = cmd.output().map_err(|e| anyhow::anyhow!("cannot start {}: {e}", b.python))?;
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    if !output.status.success() {
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        let last = stderr.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("no message");
+        anyhow::bail!("the Mitsuba script failed: {last}");
+    }
+    let mut rows: Vec<Row> = Vec::new();
+    for line in stdout.lines().filter(|l| l.starts_with("render ")) {
+        let field = |k: &str| line.split(' ').find_map(|f| f.strip_prefix(k)).ok_or_else(|| anyhow::anyhow!("no {k} in {line:?}"));
+        let (sampler, seconds, out) = (field("sampler=")?, field("seconds=")?.parse::<f64>()?, field("out=")?);
+        let (image, _) = crate::output::decode_exr(&std::fs::read(out)?)?;
+        anyhow::ensure!(image.width == b.size as usize && image.height == b.size as usize, "Mitsuba wrote a {}×{} image", image.width, image.height);
+        let error = rel_mse_above_reference(image.rgb.iter().map(|p| p.map(f64::from)), reference);
+        match rows.iter_mut().find(|r| r.sampler == sampler) {
+            Some(row) => {
+                row.seconds = row.seconds.min(seconds);
+                row.rel_mse += error;
+            }
+            None => rows.push(Row { renderer: "mitsuba", sampler: sampler.into(), spp, seconds, rel_mse: error }),
+        }
+    }
+    rows.iter_mut().for_each(|r| r.rel_mse /= b.repeats as f64);
+    let _ = std::fs::remove_dir_all(&out_dir);
+    anyhow::ensure!(!rows.is_empty(), "the Mitsuba script rendered nothing");
+    Ok(rows)
+}
+
+/// The script ships in the repository; found from the working directory or the build's source.
+fn script_path() -> anyhow::Result<PathBuf> {
+    let rel = Path::new("tests/reference/mitsuba_render.py");
+    let from_build = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel);
+    [rel.to_path_buf(), from_build]
+        .into_iter()
+        .find(|p| p.exists())
+        .ok_or_else(|| anyhow::anyhow!("{} not found (run from the repository)", rel.display()))
+}
