@@ -1,6 +1,8 @@
 //! `tessera-bench bvh`: a generated scene of about a million triangles — a grid of displaced
 //! spheres — its BVH build time, incoherent closest-hit rays per second (one core, then all),
-//! and the process's peak resident memory.
+//! the same rays through obvhs's stock traversal and triangle test (the yardstick of issue #9:
+//! our watertight, tree-space-scaled path should keep ≥ 70 % of its speed), and the process's
+//! peak resident memory.
 //!
 //! The scene is generated here (no mesh file is shipped): `spheres`² spheres on a grid, each a
 //! UV sphere of `segments` × `segments / 2` quads whose radius wobbles by ±15 %
@@ -44,6 +46,13 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
         rays.len() as f64 / one / 1e6,
         rays.len() as f64 / all / 1e6,
         rayon::current_num_threads()
+    );
+    let stock = obvhs_stock(&tris, &rays);
+    println!(
+        "the same rays through obvhs's own traversal and Möller–Trumbore test: {:.2} M rays/s on one core ({} hits); ours is {:.0} % of it",
+        rays.len() as f64 / stock.1 / 1e6,
+        stock.0,
+        100.0 * stock.1 / one
     );
     if let Some(kib) = peak_rss_kib() {
         println!("peak resident memory: {:.0} MiB", kib as f64 / 1024.0);
@@ -105,6 +114,25 @@ fn random_rays(count: usize, size: f32) -> Vec<Ray> {
             Ray::new(origin, Vec3::new(r * phi.cos(), z, r * phi.sin()))
         })
         .collect()
+}
+
+/// obvhs as its own benchmarks use it: a wide BVH of the same triangles (same build
+/// parameters), its closest-hit traversal and its (not watertight) triangle test. Returns the
+/// hits and the single-core seconds.
+fn obvhs_stock(tris: &[[Vec3; 3]], rays: &[Ray]) -> (u64, f64) {
+    use obvhs::triangle::Triangle;
+    let tris: Vec<Triangle> = tris.iter().map(|t| Triangle { v0: t[0].into(), v1: t[1].into(), v2: t[2].into() }).collect();
+    let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&tris, obvhs::BvhBuildParams::medium_build(), &mut std::time::Duration::default());
+    let t = Instant::now();
+    let hits = rays
+        .iter()
+        .map(|r| {
+            let ray = obvhs::ray::Ray::new(r.origin.into(), r.dir.into(), 0.0, f32::INFINITY);
+            let mut hit = obvhs::ray::RayHit::none();
+            bvh.ray_traverse(ray, &mut hit, |ray, id| tris[bvh.primitive_indices[id] as usize].intersect(ray)) as u64
+        })
+        .sum();
+    (hits, t.elapsed().as_secs_f64())
 }
 
 /// VmHWM from /proc/self/status (Linux), in KiB.

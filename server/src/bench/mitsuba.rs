@@ -22,7 +22,7 @@ use super::accuracy::reference::{self, Reference};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
-use tessera_worker::tracer::integrator::PathSettings;
+use tessera_worker::tracer::integrator::{PathSettings, Roulette};
 use tessera_worker::tracer::sampler::SamplerKind;
 use tessera_worker::tracer::{PixelSums, RenderSettings, Scene, render_tile};
 
@@ -52,12 +52,21 @@ pub struct MitsubaBench {
     /// Directory of cached reference renders.
     #[arg(long, default_value = "target/accuracy-cache")]
     pub cache: PathBuf,
+    /// Render Tessera's side only (e.g. to compare tracer changes quickly).
+    #[arg(long)]
+    pub skip_mitsuba: bool,
+    /// Tessera's Russian roulette: survive with probability max(β) from this bounce on
+    /// (0: roulette off).
+    #[arg(long, default_value_t = 3)]
+    pub roulette_depth: u32,
 }
 
 /// One configuration's figures.
 #[derive(Clone, Debug)]
 pub struct Row {
     pub renderer: &'static str,
+    /// Rays per second (closest-hit and shadow), where the renderer counts them.
+    pub rays_per_s: Option<f64>,
     pub sampler: String,
     pub spp: u32,
     pub seconds: f64,
@@ -93,7 +102,7 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
             rows.push(tessera_row(&scene, &reference, b, spp, sampler)?);
             print_row(rows.last().expect("pushed"));
         }
-        if mitsuba_missing.is_some() {
+        if mitsuba_missing.is_some() || b.skip_mitsuba {
             continue;
         }
         match mitsuba_rows(&reference, b, spp) {
@@ -103,6 +112,9 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
             }
             Err(e) => mitsuba_missing = Some(e),
         }
+    }
+    if b.skip_mitsuba {
+        return Ok(rows);
     }
     if let Some(e) = mitsuba_missing {
         println!("Mitsuba 3 was not run ({e:#}).\nTo compare, install it: {INSTALL}");
@@ -116,13 +128,14 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
 
 fn print_row(r: &Row) {
     println!(
-        "  {:<8} {:<12} {:>5} spp {:>8.3} s  relMSE {:.3e}  relMSE·s {:.3e}",
+        "  {:<8} {:<12} {:>5} spp {:>8.3} s  relMSE {:.3e}  relMSE·s {:.3e}{}",
         r.renderer,
         r.sampler,
         r.spp,
         r.seconds,
         r.rel_mse,
-        r.product()
+        r.product(),
+        r.rays_per_s.map(|v| format!("  {:.1} M rays/s", v / 1e6)).unwrap_or_default()
     );
 }
 
@@ -145,23 +158,29 @@ fn print_ratio(rows: &[Row], spp: u32) {
 }
 
 fn tessera_row(scene: &Scene, reference: &Reference, b: &MitsubaBench, spp: u32, sampler: SamplerKind) -> anyhow::Result<Row> {
-    let (mut seconds, mut error) = (f64::INFINITY, 0.0);
+    let (mut seconds, mut error, mut rays) = (f64::INFINITY, 0.0, 0);
     for r in 0..b.repeats {
         let settings = RenderSettings {
             width: b.size,
             height: b.size,
             seed: 1 + r as u64,
             sampler,
-            path: PathSettings::default(),
+            path: PathSettings { roulette: roulette(b.roulette_depth), ..PathSettings::default() },
             background: glam::Vec3::ZERO,
             camera: None,
         };
         let t = Instant::now();
         let sums = render_tile(scene, &settings, settings.full_frame(), 0..spp).map_err(anyhow::Error::msg)?;
         seconds = seconds.min(t.elapsed().as_secs_f64());
+        rays = sums.rays;
         error += rel_mse_above_reference(sums.pixels.iter().map(PixelSums::mean), reference);
     }
-    Ok(Row { renderer: "tessera", sampler: sampler.name().into(), spp, seconds, rel_mse: error / b.repeats as f64 })
+    let rays_per_s = Some(rays as f64 / seconds);
+    Ok(Row { renderer: "tessera", rays_per_s, sampler: sampler.name().into(), spp, seconds, rel_mse: error / b.repeats as f64 })
+}
+
+fn roulette(depth: u32) -> Roulette {
+    if depth == 0 { Roulette::Off } else { Roulette::Throughput { min_depth: depth } }
 }
 
 /// relMSE with the reference's own expected share removed: E[(x − r)²] = E[(x − μ)²] + Var(r)
@@ -213,7 +232,7 @@ fn mitsuba_rows(reference: &Reference, b: &MitsubaBench, spp: u32) -> anyhow::Re
                 row.seconds = row.seconds.min(seconds);
                 row.rel_mse += error;
             }
-            None => rows.push(Row { renderer: "mitsuba", sampler: sampler.into(), spp, seconds, rel_mse: error }),
+            None => rows.push(Row { renderer: "mitsuba", rays_per_s: None, sampler: sampler.into(), spp, seconds, rel_mse: error }),
         }
     }
     rows.iter_mut().for_each(|r| r.rel_mse /= b.repeats as f64);

@@ -83,11 +83,13 @@ pub struct TileSums {
     pub dropped: u64,
     /// Largest path throughput weight seen (Russian roulette and importance weights).
     pub max_weight: f32,
+    /// Rays traced (camera, bounce and shadow rays), for throughput figures; not sent on the wire.
+    pub rays: u64,
 }
 
 impl TileSums {
     pub fn new(tile: Tile) -> TileSums {
-        TileSums { tile, pixels: vec![PixelSums::default(); tile.pixel_count()], dropped: 0, max_weight: 0.0 }
+        TileSums { tile, pixels: vec![PixelSums::default(); tile.pixel_count()], dropped: 0, max_weight: 0.0, rays: 0 }
     }
 
     /// Adds another range's sums for the same tile.
@@ -100,6 +102,7 @@ impl TileSums {
         }
         self.dropped += other.dropped;
         self.max_weight = self.max_weight.max(other.max_weight);
+        self.rays += other.rays;
         Ok(())
     }
 

@@ -97,6 +97,8 @@ impl Default for PathSettings {
 pub struct PathSample {
     pub radiance: Vec3,
     pub max_weight: f32,
+    /// Rays traced for it: closest-hit (camera and bounces) and shadow rays.
+    pub rays: u32,
 }
 
 pub struct Integrator<'a> {
@@ -133,8 +135,10 @@ impl<'a> Integrator<'a> {
         let mut prev: Option<Bounce> = None;
         // Absorption coefficient of the medium the ray travels in (zero: air).
         let mut medium = Vec3::ZERO;
+        let mut rays = 0u32;
         for depth in 0.. {
             let u_glass = if E::GLASS { sampler.get_1d() } else { 0.0 };
+            rays += 1;
             let hit = self.surface::<E>(&ray, u_glass);
             if E::GLASS && medium != Vec3::ZERO {
                 beta *= transmittance(medium, hit.as_ref().map_or(f32::INFINITY, |s| s.dist));
@@ -163,7 +167,7 @@ impl<'a> Integrator<'a> {
                 let Some(bsdf) = s.bsdf.filter(|_| depth < self.settings.max_depth) else { break };
                 let delta = E::GLASS && bsdf.is_specular();
                 if matches!(est, Estimator::Light | Estimator::Mis) && !delta && !self.lights.is_empty() {
-                    l += beta * self.direct::<E>(est, &s, &bsdf, medium, u_pick, u_light);
+                    l += beta * self.direct::<E>(est, &s, &bsdf, medium, u_pick, u_light, &mut rays);
                 }
                 let Some(bs) = bsdf.sample(s.wo, u_lobe, u_dir) else { break };
                 bs
@@ -177,14 +181,14 @@ impl<'a> Integrator<'a> {
             if !beta.is_finite() {
                 // An overflowed throughput makes the sample meaningless (∞·0 later): report it
                 // as non-finite, so it is dropped and counted, and keep max_weight finite.
-                return PathSample { radiance: Vec3::NAN, max_weight };
+                return PathSample { radiance: Vec3::NAN, max_weight, rays };
             }
             max_weight = max_weight.max(beta.max_element());
             if !survives_roulette(self.settings.roulette, depth, &mut beta, sampler.get_1d()) {
                 break;
             }
         }
-        PathSample { radiance: l, max_weight }
+        PathSample { radiance: l, max_weight, rays }
     }
 
     /// Radiance picked up when a ray leaves the scene.
@@ -219,7 +223,8 @@ impl<'a> Integrator<'a> {
     }
 
     /// Next-event estimation: one light sample, MIS-weighted for `Mis`.
-    fn direct<E: EffectSet>(&self, est: Estimator, s: &Surface, bsdf: &Bsdf, medium: Vec3, u_pick: f32, u: Vec2) -> Vec3 {
+    #[allow(clippy::too_many_arguments)] // the path state the light sample needs, all by value
+    fn direct<E: EffectSet>(&self, est: Estimator, s: &Surface, bsdf: &Bsdf, medium: Vec3, u_pick: f32, u: Vec2, rays: &mut u32) -> Vec3 {
         let Some(ls) = self.lights.sample_for::<E>(s.p.p, s.frame.n, u_pick, u) else { return Vec3::ZERO };
         let wi = s.frame.to_local(ls.wi);
         let side = ls.wi.dot(s.ng);
@@ -237,6 +242,7 @@ impl<'a> Integrator<'a> {
             Target::Infinite => (s.p.spawn(s.ng, ls.wi), f32::INFINITY),
         };
         let t_max = if dist.is_finite() { 1.0 - SHADOW_EPSILON } else { f32::INFINITY };
+        *rays += 1;
         if self.occluded::<E>(&shadow, t_max) {
             return Vec3::ZERO;
         }

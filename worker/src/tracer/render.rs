@@ -89,7 +89,7 @@ fn render_rows<E: EffectSet>(
     cancel: &AtomicBool,
 ) -> Option<TileSums> {
     let mut out = TileSums::new(tile);
-    let rows: Vec<(u64, f32)> = out
+    let rows: Vec<(u64, f32, u64)> = out
         .pixels
         .par_chunks_mut(tile.w.max(1) as usize)
         .enumerate()
@@ -98,10 +98,10 @@ fn render_rows<E: EffectSet>(
         .with_max_len(1)
         .map(|(row, pixels)| {
             if cancel.load(Ordering::Relaxed) {
-                return (0, 0.0);
+                return (0, 0.0, 0);
             }
             let py = tile.y0 + row as u32;
-            let (mut dropped, mut max_weight) = (0u64, 0f32);
+            let (mut dropped, mut max_weight, mut rays) = (0u64, 0f32, 0u64);
             for (col, sums) in pixels.iter_mut().enumerate() {
                 let px = tile.x0 + col as u32;
                 for index in samples.clone() {
@@ -109,6 +109,7 @@ fn render_rows<E: EffectSet>(
                     let jitter = sampler.get_2d();
                     let ray = if E::DOF { camera.ray_lens(px, py, jitter, sampler.get_2d()) } else { camera.ray(px, py, jitter) };
                     let s = integrator.li_for::<E>(ray, &mut sampler);
+                    rays += u64::from(s.rays);
                     if s.radiance.is_finite() {
                         sums.add_sample(s.radiance);
                         max_weight = max_weight.max(s.max_weight);
@@ -117,15 +118,16 @@ fn render_rows<E: EffectSet>(
                     }
                 }
             }
-            (dropped, max_weight)
+            (dropped, max_weight, rays)
         })
         .collect();
     if cancel.load(Ordering::Relaxed) {
         return None;
     }
-    for (d, w) in rows {
+    for (d, w, r) in rows {
         out.dropped += d;
         out.max_weight = out.max_weight.max(w);
+        out.rays += r;
     }
     Some(out)
 }
