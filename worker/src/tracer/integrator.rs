@@ -163,12 +163,13 @@ impl<'a> Integrator<'a> {
             } else {
                 l += beta * self.emitted(est, depth, prev, &s);
                 let (u_pick, u_light) = (sampler.get_1d(), sampler.get_2d());
-                let (u_lobe, u_dir) = (sampler.get_1d(), sampler.get_2d());
+                let (d_lobe, u_dir) = (sampler.defer_1d(), sampler.get_2d());
                 let Some(bsdf) = s.bsdf.filter(|_| depth < self.settings.max_depth) else { break };
                 let delta = E::GLASS && bsdf.is_specular();
                 if matches!(est, Estimator::Light | Estimator::Mis) && !delta && !self.lights.is_empty() {
                     l += beta * self.direct::<E>(est, &s, &bsdf, medium, u_pick, u_light, &mut rays);
                 }
+                let u_lobe = if bsdf.chooses_lobes() { sampler.deferred(d_lobe) } else { 0.0 };
                 let Some(bs) = bsdf.sample(s.wo, u_lobe, u_dir) else { break };
                 bs
             };
@@ -184,7 +185,8 @@ impl<'a> Integrator<'a> {
                 return PathSample { radiance: Vec3::NAN, max_weight, rays };
             }
             max_weight = max_weight.max(beta.max_element());
-            if !survives_roulette(self.settings.roulette, depth, &mut beta, sampler.get_1d()) {
+            let d_roulette = sampler.defer_1d();
+            if !survives_roulette(self.settings.roulette, depth, &mut beta, || sampler.deferred(d_roulette)) {
                 break;
             }
         }
@@ -286,7 +288,8 @@ fn transmittance(sigma: Vec3, dist: f32) -> Vec3 {
 }
 
 /// Applies Russian roulette; false when the path stops. Survivors are reweighted by 1/q.
-fn survives_roulette(rr: Roulette, depth: u32, beta: &mut Vec3, u: f32) -> bool {
+/// `u` is asked for only when the path may stop.
+fn survives_roulette(rr: Roulette, depth: u32, beta: &mut Vec3, u: impl FnOnce() -> f32) -> bool {
     let q = match rr {
         Roulette::Off => return true,
         Roulette::Threshold { threshold, p } => {
@@ -302,7 +305,7 @@ fn survives_roulette(rr: Roulette, depth: u32, beta: &mut Vec3, u: f32) -> bool 
             beta.max_element()
         }
     };
-    if !(u < q) {
+    if !(u() < q) {
         return false;
     }
     *beta /= q;

@@ -96,6 +96,10 @@ impl FromStr for SamplerKind {
     }
 }
 
+/// A dimension reserved by [`Sampler::defer_1d`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Deferred1d(u32);
+
 /// Random numbers for one (pixel, sample index); see the module docs.
 #[derive(Clone, Debug)]
 pub struct Sampler {
@@ -145,6 +149,23 @@ impl Sampler {
     /// The next 1D value, in `[0, ONE_MINUS_EPSILON]`; consumes one dimension.
     pub fn get_1d(&mut self) -> f32 {
         let d = self.advance(1);
+        self.value_1d(d)
+    }
+
+    /// Reserves the next dimension for a 1D value that may not be needed (a lobe choice on a
+    /// one-lobe BSDF, a roulette draw on a path roulette cannot stop): the layout, hence every
+    /// other draw, is the same whether or not [`Sampler::deferred`] is called, and an unused
+    /// value costs nothing.
+    pub fn defer_1d(&mut self) -> Deferred1d {
+        Deferred1d(self.advance(1))
+    }
+
+    /// The value of a reserved dimension: exactly what `get_1d` would have returned there.
+    pub fn deferred(&self, d: Deferred1d) -> f32 {
+        self.value_1d(d.0)
+    }
+
+    fn value_1d(&self, d: u32) -> f32 {
         #[cfg(test)]
         if let Some(v) = self.boundary_value(d) {
             return v;

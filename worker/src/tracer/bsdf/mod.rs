@@ -93,6 +93,11 @@ impl Bsdf {
         }
     }
 
+    /// Whether [`Bsdf::sample`] reads `u_lobe` (every BSDF with more than one lobe).
+    pub fn chooses_lobes(&self) -> bool {
+        !matches!(self, Bsdf::Lambert(_))
+    }
+
     /// `u_lobe` picks a lobe, `u` places the direction within it.
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 && !self.transmits() {
