@@ -250,3 +250,48 @@ fn script_path() -> anyhow::Result<PathBuf> {
         .find(|p| p.exists())
         .ok_or_else(|| anyhow::anyhow!("{} not found (run from the repository)", rel.display()))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bench(python: &str, cache: &Path) -> MitsubaBench {
+        MitsubaBench {
+            size: 8,
+            spp: vec![1, 4],
+            repeats: 2,
+            reference_spp: 16,
+            samplers: vec!["independent".into()],
+            variant: "scalar_rgb".into(),
+            python: python.into(),
+            cache: cache.to_path_buf(),
+            skip_mitsuba: false,
+            roulette_depth: 3,
+        }
+    }
+
+    #[test]
+    fn the_reference_noise_is_subtracted_exactly() {
+        let reference = Reference { means: vec![[0.5, 0.09, 0.0]; 4], variance: vec![[1e-4, 4e-6, 0.0]; 4], description: "test".into() };
+        let floor = reference.noise_floor();
+        let same = rel_mse_above_reference(reference.means.clone().into_iter(), &reference);
+        assert!((same + floor).abs() < 1e-15, "an image equal to the reference scores −floor: {same} vs {floor}");
+        // Off by 0.01 in every channel: each term adds 0.01² / (ref + 0.01)².
+        let off = rel_mse_above_reference(reference.means.iter().map(|m| m.map(|v| v + 0.01)), &reference);
+        let expected = (1e-4 / 0.51f64.powi(2) + 1e-4 / 0.1f64.powi(2) + 1e-4 / 0.01f64.powi(2)) / 3.0 - floor;
+        assert!((off - expected).abs() < 1e-12, "{off} vs {expected}");
+    }
+
+    #[test]
+    fn without_mitsuba_tessera_is_measured_and_the_run_still_succeeds() {
+        let cache = std::env::temp_dir().join(format!("tessera-mitsuba-bench-test-{}", std::process::id()));
+        let rows = run(&bench("/nonexistent/python3", &cache)).expect("runs without Mitsuba");
+        let _ = std::fs::remove_dir_all(&cache);
+        assert_eq!(rows.len(), 4, "two samplers × two spp, Tessera only");
+        for r in &rows {
+            assert_eq!(r.renderer, "tessera");
+            assert!(r.seconds > 0.0 && r.rel_mse.is_finite(), "{r:?}");
+            assert!(r.rays_per_s.is_some_and(|v| v > 0.0), "rays are counted: {r:?}");
+        }
+    }
+}
