@@ -3,7 +3,7 @@
 use crate::client::Coordinator;
 use crate::state::{AppState, Config};
 use std::path::Path;
-use tessera_worker::client::WorkerConfig;
+use tessera_worker::client::{WorkerConfig, WorkerReport};
 
 /// The shape of a local farm.
 #[derive(Clone, Debug)]
@@ -46,6 +46,15 @@ where
     F: FnOnce(Coordinator) -> Fut,
     Fut: std::future::Future<Output = anyhow::Result<T>>,
 {
+    with_farm_reports(data, farm, f).await.map(|(t, _)| t)
+}
+
+/// As [`with_farm`], also returning each worker's report (None for a worker whose `run` failed).
+pub async fn with_farm_reports<T, F, Fut>(data: &Path, farm: LocalFarm, f: F) -> anyhow::Result<(T, Vec<Option<WorkerReport>>)>
+where
+    F: FnOnce(Coordinator) -> Fut,
+    Fut: std::future::Future<Output = anyhow::Result<T>>,
+{
     // The farm lives and dies with this process: nothing to resume, so no checkpoints.
     let config = Config { checkpoint_ms: None, frame_affinity: farm.frame_affinity, ..Config::new(data.to_path_buf()) };
     let state = AppState::new(config)?;
@@ -72,10 +81,11 @@ where
     // Loopback polls are cheap: poll often so the job's end is noticed within milliseconds.
     let outcome = f(Coordinator::new(&url, None).polling_every(std::time::Duration::from_millis(50))).await;
     let _ = stop_workers.send(());
+    let mut reports = Vec::with_capacity(workers.len());
     for worker in workers {
-        let _ = worker.await;
+        reports.push(worker.await.ok().and_then(Result::ok));
     }
     let _ = stop_server.send(());
     let _ = server.await;
-    outcome
+    outcome.map(|t| (t, reports))
 }

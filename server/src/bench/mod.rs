@@ -4,3 +4,4 @@ pub mod accuracy;
 pub mod bvh;
 pub mod frames;
 pub mod mitsuba;
+pub mod overhead;

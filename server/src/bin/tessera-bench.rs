@@ -1,7 +1,9 @@
 //! Benchmarks of the distributed path (figures, not tests).
 //!
 //! `tessera-bench overhead`   — the same job rendered by the tracer alone and through a
-//!                              coordinator + 1 worker over loopback HTTP; prints both and the ratio.
+//!                              coordinator + 1 worker over loopback HTTP, in interleaved pairs;
+//!                              prints fastest and median of each, the median per-pair ratio and
+//!                              the worker's idle time (tessera_server::bench::overhead).
 //! `tessera-bench roundtrips` — a coordinator on one core fed by fake workers that return
 //!                              results instantly; prints unit round trips per second and merge cost.
 //! `tessera-bench effects`    — the tracer alone on one scene with the gated kernel, the matte
@@ -19,8 +21,7 @@ use clap::{Parser, Subcommand};
 use std::time::{Duration, Instant};
 use tessera_proto::{JobRequest, PartialSums, TileRect, WirePixel};
 use tessera_server::bundled;
-use tessera_worker::client::render_settings;
-use tessera_worker::tracer::{KernelBits, Tile, render_tile, render_tile_kernel};
+use tessera_worker::tracer::{KernelBits, render_tile_kernel};
 
 #[derive(Parser)]
 #[command(about = "Tessera benchmarks: print figures, assert nothing")]
@@ -31,21 +32,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// Tracer alone vs coordinator + 1 worker on the same job.
-    Overhead {
-        #[arg(long, default_value = "cornell-box")]
-        scene: String,
-        #[arg(long, default_value_t = 256)]
-        size: u32,
-        #[arg(long, default_value_t = 64)]
-        spp: u32,
-        /// Alternating runs of each; the fastest of each is reported.
-        #[arg(long, default_value_t = 3)]
-        repeats: u32,
-        /// Samples per pixel in one unit (the tracer-alone run uses the same units).
-        #[arg(long, default_value_t = 16)]
-        batch_spp: u32,
-    },
+    /// Tracer alone vs coordinator + 1 worker on the same job, in interleaved pairs: fastest and
+    /// median of each, median of the per-pair ratios, and the worker's idle time within the job.
+    Overhead(tessera_server::bench::overhead::OverheadBench),
     /// Effect gating: gated vs matte-only vs all-effects kernels on the same frame.
     Effects {
         #[arg(long, default_value = "cornell-box")]
@@ -82,7 +71,7 @@ enum Cmd {
 
 fn main() -> anyhow::Result<()> {
     match Cli::parse().cmd {
-        Cmd::Overhead { scene, size, spp, repeats, batch_spp } => overhead(&scene, size, spp, repeats, batch_spp),
+        Cmd::Overhead(b) => tessera_server::bench::overhead::run(&b),
         Cmd::Roundtrips { seconds, workers, tile } => roundtrips(seconds, workers, tile),
         Cmd::Effects { scene, size, spp, repeats } => effects(&scene, size, spp, repeats),
         Cmd::Accuracy(options) => tessera_server::bench::accuracy::run(options).map(|_| ()),
@@ -92,74 +81,9 @@ fn main() -> anyhow::Result<()> {
     }
 }
 
-fn job(scene: &str, size: u32, spp: u32, batch: u32) -> JobRequest {
-    JobRequest { scene: scene.into(), width: size, height: size, spp: Some(spp), tile_size: Some(64), batch_spp: Some(batch), ..JobRequest::default() }
-}
-
-/// The settings both benchmarks render with: a square frame, `mis` + Sobol, seed 0.
-fn bench_settings(size: u32) -> anyhow::Result<tessera_worker::tracer::RenderSettings> {
-    let params = tessera_proto::RenderParams {
-        width: size,
-        height: size,
-        seed: 0,
-        estimator: "mis".into(),
-        sampler: "sobol".into(),
-        camera: None,
-        max_depth: 1024,
-        background: [0.0; 3],
-        animation: None,
-        fps: tessera_proto::job::DEFAULT_FPS,
-    };
-    render_settings(&params).map_err(anyhow::Error::msg)
-}
-
-fn overhead(scene_name: &str, size: u32, spp: u32, repeats: u32, batch: u32) -> anyhow::Result<()> {
-    let scene = bundled::load(scene_name)?;
-    let settings = bench_settings(size)?;
-    let rt = tokio::runtime::Runtime::new()?;
-    let (mut alone, mut farm) = (f64::INFINITY, f64::INFINITY);
-    for r in 0..repeats {
-        // The tracer alone, unit by unit in the farm's order (batches outer, tiles inner).
-        let t = Instant::now();
-        for b in 0..spp.div_ceil(batch) {
-            for y0 in (0..size).step_by(64) {
-                for x0 in (0..size).step_by(64) {
-                    let tile = Tile { x0, y0, w: 64.min(size - x0), h: 64.min(size - y0) };
-                    render_tile(&scene, &settings, tile, b * batch..((b + 1) * batch).min(spp)).map_err(anyhow::Error::msg)?;
-                }
-            }
-        }
-        alone = alone.min(t.elapsed().as_secs_f64());
-        let data = std::env::temp_dir().join(format!("tessera-bench-{}-{r}", std::process::id()));
-        let t = Instant::now();
-        let req = job(scene_name, size, spp, batch);
-        let phases = rt.block_on(tessera_server::local::with_local_farm(&data, 0, |c| async move {
-            let started = t.elapsed().as_secs_f64();
-            let j = c.submit(&req).await?;
-            let done = c.wait(&j.id, |_| {}).await?;
-            let rendered = t.elapsed().as_secs_f64();
-            c.bytes(&format!("/v1/jobs/{}/image.exr", j.id)).await?;
-            anyhow::Ok((started, done.elapsed_s, rendered, t.elapsed().as_secs_f64()))
-        }))?;
-        let total = t.elapsed().as_secs_f64();
-        eprintln!(
-            "  run {r}: farm up {:.3} s, job {:.3} s (coordinator's clock), done seen {:.3} s, EXR {:.3} s, stopped {total:.3} s",
-            phases.0, phases.1, phases.2, phases.3
-        );
-        farm = farm.min(total);
-        let _ = std::fs::remove_dir_all(&data);
-    }
-    let samples = size as f64 * size as f64 * spp as f64;
-    println!("overhead: {scene_name} {size}x{size} {spp} spp, units 64x64x{batch}, fastest of {repeats}");
-    println!("  tracer alone           {alone:8.3} s  {:>10.0} samples/s", samples / alone);
-    println!("  coordinator + 1 worker {farm:8.3} s  {:>10.0} samples/s (incl. scene load, EXR encode and download)", samples / farm);
-    println!("  overhead               {:+7.2} %", (farm / alone - 1.0) * 100.0);
-    Ok(())
-}
-
 fn effects(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Result<()> {
     let scene = bundled::load(scene_name)?;
-    let settings = bench_settings(size)?;
+    let settings = tessera_server::bench::overhead::settings(size)?;
     let gated_bits = scene.effects_for(scene.camera(None).map_err(anyhow::Error::msg)?, settings.background).kernel();
     let kernels = [("gated", None), ("matte only", Some(KernelBits::MATTE)), ("all effects on", Some(KernelBits::ALL))];
     let never = std::sync::atomic::AtomicBool::new(false);

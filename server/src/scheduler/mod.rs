@@ -9,7 +9,9 @@
 //! - A result is accepted once: late (lease gone) and duplicate results are `Stale` and never
 //!   counted twice.
 //! - A worker that fails `max_failures` units of a job (leases expired, malformed results) gets
-//!   no more units of that job.
+//!   no more units of that job. Leases of one worker that expire while it stays silent count as
+//!   one failure (a worker may hold two: the unit it renders and the next, prefetched).
+//! - A worker's `current` unit is its oldest lease (the one it renders; a newer one waits).
 //! - Ids of leases and workers carry the coordinator's `epoch` (its boot count), so an id from
 //!   before a restart never names something after it.
 //! - Jobs of higher priority go first; equal priorities share workers (fewest leases in flight
@@ -52,6 +54,8 @@ pub struct Accepted {
 
 #[derive(Clone, Debug)]
 struct LeaseRec {
+    /// Issue order (the lease id's counter).
+    number: u64,
     job_seq: u64,
     tile: usize,
     batch: u32,
@@ -66,7 +70,11 @@ pub struct WorkerRec {
     pub last_seen: u64,
     pub units_done: u64,
     pub failures: u64,
+    /// Its oldest lease's unit, as "job/tile/batch".
     pub current: Option<String>,
+    /// A lease of it expired and it has not been heard from since: further expiries are the
+    /// same silence and count no further failure.
+    pub lapsed: bool,
     /// The job (seq) and frame index of its last unit: its scene for that frame is built.
     pub last_frame: Option<(u64, usize)>,
 }
@@ -119,7 +127,7 @@ impl Scheduler {
     pub fn register_worker(&mut self, name: &str, threads: u32, now: u64) -> String {
         self.next_worker += 1;
         let id = format!("w{}-{}", self.epoch, self.next_worker);
-        let rec = WorkerRec { name: name.to_string(), threads, last_seen: now, units_done: 0, failures: 0, current: None, last_frame: None };
+        let rec = WorkerRec { name: name.to_string(), threads, last_seen: now, units_done: 0, failures: 0, current: None, lapsed: false, last_frame: None };
         self.workers.insert(id.clone(), rec);
         id
     }
@@ -158,6 +166,7 @@ impl Scheduler {
         self.tick(now);
         let w = self.workers.get_mut(worker).ok_or_else(|| format!("unknown worker {worker:?}"))?;
         w.last_seen = now;
+        w.lapsed = false;
         let last_frame = w.last_frame;
         let mut in_flight: HashMap<u64, usize> = HashMap::new();
         for l in self.leases.values() {
@@ -177,12 +186,13 @@ impl Scheduler {
         self.next_lease += 1;
         let lease_id = format!("l{}-{}-{}", self.epoch, self.next_lease, seq);
         let deadline = now + self.lease_timeout_ms;
-        let rec = LeaseRec { job_seq: seq, tile, batch, worker: worker.to_string(), deadline };
+        let rec = LeaseRec { number: self.next_lease, job_seq: seq, tile, batch, worker: worker.to_string(), deadline };
         self.leases.insert(lease_id.clone(), rec);
         if let Some(w) = self.workers.get_mut(worker) {
-            w.current = Some(format!("{}/{}/{}", job.cfg.id, tile, batch));
             w.last_frame = Some((seq, frame_index));
         }
+        self.refresh_current(worker);
+        let job = &self.jobs[&seq];
         Ok(Some(Lease {
             lease_id,
             job_id: job.cfg.id.clone(),
@@ -231,6 +241,7 @@ impl Scheduler {
         l.deadline = now + timeout;
         if let Some(w) = self.workers.get_mut(&l.worker) {
             w.last_seen = now;
+            w.lapsed = false;
         }
         Some(timeout)
     }
@@ -240,6 +251,7 @@ impl Scheduler {
         match self.leases.remove(lease_id) {
             Some(l) => {
                 self.requeue(&l);
+                self.refresh_current(&l.worker);
                 true
             }
             None => false,
@@ -249,7 +261,7 @@ impl Scheduler {
     pub fn complete(&mut self, lease_id: &str, sums: PartialSums, now: u64) -> Result<Accepted, ResultError> {
         self.tick(now);
         let l = self.leases.remove(lease_id).ok_or_else(|| ResultError::Stale(format!("lease {lease_id} is not active (expired, revoked or already completed)")))?;
-        let job = self.jobs.get_mut(&l.job_seq).expect("leases refer to live jobs");
+        let job = self.jobs.get(&l.job_seq).expect("leases refer to live jobs");
         let want_rect = job.tiles[l.tile].rect;
         let want_samples = job.samples_of(l.batch);
         let problem = if sums.tile != want_rect {
@@ -259,15 +271,17 @@ impl Scheduler {
         } else {
             None
         };
+        self.refresh_current(&l.worker);
         if let Some(w) = self.workers.get_mut(&l.worker) {
             w.last_seen = now;
-            w.current = None;
+            w.lapsed = false;
             if problem.is_some() {
                 w.failures += 1;
             } else {
                 w.units_done += 1;
             }
         }
+        let job = self.jobs.get_mut(&l.job_seq).expect("leases refer to live jobs");
         if let Some(p) = problem {
             job.requeue(l.tile, l.batch);
             self.count_failure(&l);
@@ -308,12 +322,13 @@ impl Scheduler {
         let expired: Vec<String> = self.leases.iter().filter(|(_, l)| l.deadline <= now).map(|(k, _)| k.clone()).collect();
         for id in expired {
             let l = self.leases.remove(&id).expect("listed");
-            if let Some(w) = self.workers.get_mut(&l.worker) {
-                w.failures += 1;
-                w.current = None;
-            }
+            self.refresh_current(&l.worker);
             self.requeue(&l);
-            self.count_failure(&l);
+            let Some(w) = self.workers.get_mut(&l.worker) else { continue };
+            if !std::mem::replace(&mut w.lapsed, true) {
+                w.failures += 1;
+                self.count_failure(&l);
+            }
         }
         let mut finished = Vec::new();
         for job in self.jobs.values_mut() {
@@ -358,6 +373,25 @@ impl Scheduler {
     /// Drops leases whose unit the job no longer wants (finished job, tile past its noise stop).
     fn revoke_unwanted(&mut self, seq: u64) {
         let Some(job) = self.jobs.get(&seq) else { return };
-        self.leases.retain(|_, l| l.job_seq != seq || job.wants(l.tile, l.batch));
+        let mut holders = Vec::new();
+        self.leases.retain(|_, l| {
+            let keep = l.job_seq != seq || job.wants(l.tile, l.batch);
+            if !keep {
+                holders.push(l.worker.clone());
+            }
+            keep
+        });
+        for w in holders {
+            self.refresh_current(&w);
+        }
+    }
+
+    /// Sets a worker's `current` to its oldest lease's unit (None without leases).
+    fn refresh_current(&mut self, worker: &str) {
+        let oldest = self.leases.values().filter(|l| l.worker == worker).min_by_key(|l| l.number);
+        let current = oldest.and_then(|l| self.jobs.get(&l.job_seq).map(|j| format!("{}/{}/{}", j.cfg.id, l.tile, l.batch)));
+        if let Some(w) = self.workers.get_mut(worker) {
+            w.current = current;
+        }
     }
 }

@@ -210,3 +210,44 @@ fn units_dropped_unmerged_are_not_credited() {
     s.cancel("j", 2);
     assert!(s.job("j").unwrap().contributions.is_empty());
 }
+
+/// A worker may hold two leases (the unit it renders and the next, prefetched): its `current`
+/// is the older one until that is done; the units are distinct and both merge.
+#[test]
+fn a_worker_holding_two_leases_shows_the_older_as_current() {
+    let mut s = Scheduler::new(TIMEOUT);
+    let w = s.register_worker("a", 2, 0);
+    s.submit(config("j", 4, 0));
+    let current = |s: &Scheduler| s.workers().next().unwrap().1.current.clone();
+    let a = s.lease(&w, 0).unwrap().unwrap();
+    let b = s.lease(&w, 1).unwrap().unwrap();
+    assert_ne!((a.tile, a.samples), (b.tile, b.samples));
+    assert_eq!(current(&s), Some("j/0/0".to_string()));
+    assert_eq!(s.workers_on("j"), 1);
+    s.complete(&a.lease_id, sums(&a, 1.0), 2).unwrap();
+    assert_eq!(current(&s), Some("j/1/0".to_string()), "the prefetched unit is current once the first is done");
+    assert!(s.release(&b.lease_id));
+    assert_eq!(current(&s), None);
+}
+
+/// Two leases of one worker that expire while it is silent count one failure; once it is heard
+/// from again, the next expiry counts again.
+#[test]
+fn leases_expiring_in_one_silence_count_one_failure() {
+    let mut s = Scheduler::with_epoch(TIMEOUT, 2, 0);
+    let w = s.register_worker("a", 2, 0);
+    s.submit(config("j", 64, 0));
+    s.lease(&w, 0).unwrap().unwrap();
+    let b = s.lease(&w, 0).unwrap().unwrap();
+    s.heartbeat(&b.lease_id, 500); // the second lease's deadline is later
+    s.tick(TIMEOUT + 1);
+    s.tick(TIMEOUT + 501);
+    let failures = |s: &Scheduler| (s.workers().next().unwrap().1.failures, s.job("j").unwrap().failures[&w].count);
+    assert_eq!(failures(&s), (1, 1), "one silence, one failure");
+    assert_eq!(s.workers().next().unwrap().1.current, None);
+    let now = TIMEOUT + 502;
+    s.lease(&w, now).unwrap().expect("not blocked after one failure");
+    s.tick(now + TIMEOUT);
+    assert_eq!(failures(&s), (2, 2));
+    assert!(s.lease(&w, now + TIMEOUT).unwrap().is_none(), "blocked after two");
+}

@@ -2,14 +2,18 @@
 //!
 //! ```text
 //! register ──► lease ──► scene (cached) ──► render on the pool ──► upload (in the background)
-//!    ▲           │ 204: poll again after a short backoff            │ at most one in flight
-//!    └── 404 ────┘                                                  ▼
-//!                 heartbeats every heartbeat_ms/3 (≤ 1 s) while a unit is held; 409 cancels it
+//!    ▲          │  ▲                                │                 at most one in flight
+//!    └── 404 ───┘  └──── prefetch: the next lease ◄─┘ asked for as the unit starts, held
+//!                        (heartbeated) until it ends; at most one
+//!  204 (no work): poll again after a short backoff
+//!  heartbeats every heartbeat_ms/3 (≤ 1 s) for each lease held, rendering or prefetched;
+//!  409 drops it (a rendering unit is canceled)
 //! ```
 //!
 //! # Layout
 //! - this file: [`run`], the loop, one unit's life (`Worker::run_unit`) and result uploads.
 //! - `api`: one function per endpoint, answers sorted into what the loop acts on.
+//! - `prefetch`: the next lease, requested and kept alive in the background while a unit renders.
 //! - `retry`: backoff with jitter, the shutdown signal, retry-until-done.
 //! - `cache`: parsed scene files by id and the last few frame scenes (with their BVHs).
 //! - `prepare`: the scene of a lease's frame: cached, refitted from the last frame, or built.
@@ -23,11 +27,19 @@
 //!   refusal that retrying cannot fix (e.g. 401 for a wrong token) ends [`run`] with an error.
 //! - A lease that cannot be worked (scene missing or broken, bad parameters) is given back with
 //!   `DELETE` and the worker carries on.
-//! - Shutdown: no new leases; the unit in hand gets [`SHUTDOWN_GRACE`] to finish (and is then
-//!   uploaded) or is canceled and given back.
+//! - Prefetch: as soon as a unit is leased, the next lease is requested in the background, so
+//!   the pool goes straight from one unit to the next (no lease round trip in between). A worker
+//!   holds at most two leases: the unit in hand and one prefetched. The prefetched lease is
+//!   heartbeated while it waits; lost meanwhile (409, deadline) it is dropped and another asked
+//!   for. Units still render one at a time, in the order they were leased.
+//! - Uploads run in the background, at most one in flight: the next unit's result waits for the
+//!   previous upload to end.
+//! - Shutdown: no new leases; a prefetched lease is given back at once; the unit in hand gets
+//!   [`SHUTDOWN_GRACE`] to finish (and is then uploaded) or is canceled and given back.
 mod api;
 mod cache;
 mod convert;
+mod prefetch;
 mod prepare;
 mod retry;
 #[cfg(test)]
@@ -39,10 +51,11 @@ use crate::tracer::{TileSums, render_tile_cancellable};
 use anyhow::{Context, anyhow};
 use api::{Api, CallError, HeartbeatAnswer, LeaseAnswer, UploadAnswer};
 use cache::SceneCache;
+use prefetch::Prefetch;
 use prepare::Prepared;
 use retry::{Backoff, RETRY, Retried, Stop, until_done};
 use std::future::Future;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tessera_proto::{Lease, Registration, WorkerHello};
@@ -70,8 +83,12 @@ pub struct WorkerReport {
     /// upload could not get through before the lease's deadline.
     pub units_stale: u64,
     /// Units dropped unfinished: lease lost while rendering (409 on heartbeat, or its deadline
-    /// passed with the coordinator unreachable), or given back at shutdown.
+    /// passed with the coordinator unreachable), or given back at shutdown; prefetched leases
+    /// lost while waiting or given back at shutdown included.
     pub units_canceled: u64,
+    /// Time the render pool spent rendering units (canceled ones included): against the
+    /// worker's wall time, what it spent waiting for leases, scenes and the coordinator.
+    pub busy: Duration,
 }
 
 /// How long the unit in hand may still take once shutdown is requested.
@@ -121,6 +138,16 @@ enum Unit {
     Abandoned,
 }
 
+/// What the loop carries from one unit to the next.
+#[derive(Default)]
+struct Carry {
+    report: WorkerReport,
+    /// The last unit's result upload (at most one in flight).
+    uploading: Option<JoinHandle<Uploaded>>,
+    /// The next lease, fetched while the unit in hand renders (at most one).
+    prefetch: Option<Prefetch>,
+}
+
 /// How an upload ended.
 enum Uploaded {
     Merged,
@@ -134,6 +161,8 @@ struct Worker {
     api: Arc<Api>,
     pool: Arc<rayon::ThreadPool>,
     scenes: Arc<Mutex<SceneCache>>,
+    /// Nanoseconds the pool spent rendering units (canceled ones included).
+    busy_ns: AtomicU64,
 }
 
 impl Worker {
@@ -149,28 +178,33 @@ impl Worker {
             api: Arc::new(api),
             pool: Arc::new(pool),
             scenes: Arc::new(Mutex::new(SceneCache::default())),
+            busy_ns: AtomicU64::new(0),
         })
     }
 
     async fn main_loop(&self, stop: Stop) -> anyhow::Result<WorkerReport> {
         info!(coordinator = self.api.base(), threads = self.pool.current_num_threads(), name = %self.name, "worker starting");
-        let mut report = WorkerReport::default();
-        let mut uploading = None;
-        let result = self.serve(&stop, &mut report, &mut uploading).await;
-        if let Some(upload) = uploading.take() {
+        let mut carry = Carry::default();
+        let result = self.serve(&stop, &mut carry).await;
+        let Carry { mut report, uploading, prefetch } = carry;
+        if let Some(p) = prefetch {
+            self.give_back(p, &mut report).await;
+        }
+        if let Some(upload) = uploading {
             finish_upload(upload, &stop, &mut report).await;
         }
-        info!(units_done = report.units_done, units_stale = report.units_stale, units_canceled = report.units_canceled, "worker stopped");
+        report.busy = Duration::from_nanos(self.busy_ns.load(Ordering::Relaxed));
+        info!(units_done = report.units_done, units_stale = report.units_stale, units_canceled = report.units_canceled, busy_s = report.busy.as_secs_f64(), "worker stopped");
         result.map(|()| report)
     }
 
     /// The loop proper; returns on shutdown or a fatal refusal.
-    async fn serve(&self, stop: &Stop, report: &mut WorkerReport, uploading: &mut Option<JoinHandle<Uploaded>>) -> anyhow::Result<()> {
+    async fn serve(&self, stop: &Stop, carry: &mut Carry) -> anyhow::Result<()> {
         let Some(mut reg) = self.register(stop).await? else { return Ok(()) };
         let mut idle = IDLE;
         loop {
             let worker_id = reg.worker_id.as_str();
-            let answer = until_done("lease request", stop, LEASE_DRAIN, || self.api.lease(worker_id)).await;
+            let answer = self.next_lease(worker_id, stop, carry).await;
             let lease = match answer {
                 Retried::Done(LeaseAnswer::Lease(lease)) => lease,
                 Retried::Done(LeaseAnswer::NoWork) => {
@@ -195,17 +229,19 @@ impl Worker {
                     return Ok(());
                 }
             };
+            // The next lease is fetched (and held) while this unit renders.
+            carry.prefetch = Some(Prefetch::start(self.api.clone(), worker_id.to_owned(), heartbeat_every(&reg), stop.clone()));
             match self.run_unit(&lease, heartbeat_every(&reg), stop).await {
                 Unit::Rendered { sums, deadline, prepared } => {
                     idle.reset();
                     let body = to_wire(&sums, lease.samples).encode();
-                    if let Some(previous) = uploading.take() {
-                        finish_upload(previous, stop, report).await;
+                    if let Some(previous) = carry.uploading.take() {
+                        finish_upload(previous, stop, &mut carry.report).await;
                     }
-                    *uploading = Some(tokio::spawn(upload(self.api.clone(), lease.lease_id.clone(), body, prepared, deadline)));
+                    carry.uploading = Some(tokio::spawn(upload(self.api.clone(), lease.lease_id.clone(), body, prepared, deadline)));
                 }
                 Unit::Canceled => {
-                    report.units_canceled += 1;
+                    carry.report.units_canceled += 1;
                     idle.reset();
                 }
                 Unit::Failed => {
@@ -215,10 +251,28 @@ impl Worker {
                     }
                 }
                 Unit::Abandoned => {
-                    report.units_canceled += 1;
+                    carry.report.units_canceled += 1;
                     return Ok(());
                 }
             }
+        }
+    }
+
+    /// The prefetched lease (or the answer of the prefetch's request), else a lease request now.
+    async fn next_lease(&self, worker_id: &str, stop: &Stop, carry: &mut Carry) -> Retried<LeaseAnswer> {
+        if let Some(p) = carry.prefetch.take()
+            && let Some(answer) = p.take(&mut carry.report.units_canceled).await
+        {
+            return answer;
+        }
+        until_done("lease request", stop, LEASE_DRAIN, || self.api.lease(worker_id)).await
+    }
+
+    /// Ends a prefetch when the loop has ended; a lease it still got is given back.
+    async fn give_back(&self, prefetch: Prefetch, report: &mut WorkerReport) {
+        if let Some(Retried::Done(LeaseAnswer::Lease(lease)) | Retried::Stopped(Some(LeaseAnswer::Lease(lease)))) = prefetch.take(&mut report.units_canceled).await {
+            self.release(&lease.lease_id).await;
+            report.units_canceled += 1;
         }
     }
 
@@ -303,6 +357,7 @@ impl Worker {
                 }
             }
         };
+        self.busy_ns.fetch_add(u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX), Ordering::Relaxed);
         if let Some(why) = lost {
             info!(lease = id, job = %lease.job_id, "lease lost while rendering: {why}; unit dropped");
             return Unit::Canceled;
@@ -327,45 +382,55 @@ impl Worker {
         Unit::Failed
     }
 
-    /// Heartbeats the lease every `every` and returns once it is lost, saying why. Transient
-    /// failures are retried at the same pace until the lease's deadline passes.
+    /// Heartbeats the lease until it is lost (see [`keep_alive`]).
     async fn keep_alive(&self, id: &str, every: Duration, deadline: &Mutex<Instant>) -> String {
-        let expired = || "its deadline passed without a successful heartbeat".to_owned();
-        loop {
-            // Normally `every`; sooner if the lease was granted with a shorter deadline.
-            let due = *deadline.lock().expect("deadline lock");
-            let pause = every.min(due.saturating_duration_since(Instant::now()) / 2).max(Duration::from_millis(10));
-            tokio::time::sleep(pause).await;
-            let due = *deadline.lock().expect("deadline lock");
-            let Some(left) = due.checked_duration_since(Instant::now()).filter(|d| !d.is_zero()) else {
-                return expired();
-            };
-            match tokio::time::timeout(left, self.api.heartbeat(id)).await {
-                Ok(Ok(HeartbeatAnswer::Extended(d))) => *deadline.lock().expect("deadline lock") = Instant::now() + d,
-                Ok(Ok(HeartbeatAnswer::Gone)) => return "the coordinator has dropped it (expired or job canceled)".to_owned(),
-                Ok(Err(e)) => warn!(lease = id, "heartbeat failed (will retry): {e}"),
-                Err(_) => return expired(),
-            }
-        }
+        keep_alive(&self.api, id, every, deadline).await
     }
 
-    /// Gives a lease back (a few attempts; if they all fail the lease simply expires).
+    /// Gives a lease back (see [`release`]).
     async fn release(&self, id: &str) {
-        let mut backoff = RETRY;
-        for attempt in 1..=RELEASE_ATTEMPTS {
-            match self.api.release(id).await {
-                Ok(()) => {
-                    debug!(lease = id, "lease given back");
-                    return;
-                }
-                Err(CallError::Transient(e)) if attempt < RELEASE_ATTEMPTS => {
-                    warn!(lease = id, attempt, "{e}");
-                    tokio::time::sleep(backoff.next_delay()).await;
-                }
-                Err(e) => {
-                    warn!(lease = id, "cannot give the lease back ({e}); it will expire");
-                    return;
-                }
+        release(&self.api, id).await;
+    }
+}
+
+/// Heartbeats the lease every `every` and returns once it is lost, saying why. Transient
+/// failures are retried at the same pace until the lease's deadline passes.
+async fn keep_alive(api: &Api, id: &str, every: Duration, deadline: &Mutex<Instant>) -> String {
+    let expired = || "its deadline passed without a successful heartbeat".to_owned();
+    loop {
+        // Normally `every`; sooner if the lease was granted with a shorter deadline.
+        let due = *deadline.lock().expect("deadline lock");
+        let pause = every.min(due.saturating_duration_since(Instant::now()) / 2).max(Duration::from_millis(10));
+        tokio::time::sleep(pause).await;
+        let due = *deadline.lock().expect("deadline lock");
+        let Some(left) = due.checked_duration_since(Instant::now()).filter(|d| !d.is_zero()) else {
+            return expired();
+        };
+        match tokio::time::timeout(left, api.heartbeat(id)).await {
+            Ok(Ok(HeartbeatAnswer::Extended(d))) => *deadline.lock().expect("deadline lock") = Instant::now() + d,
+            Ok(Ok(HeartbeatAnswer::Gone)) => return "the coordinator has dropped it (expired or job canceled)".to_owned(),
+            Ok(Err(e)) => warn!(lease = id, "heartbeat failed (will retry): {e}"),
+            Err(_) => return expired(),
+        }
+    }
+}
+
+/// Gives a lease back (a few attempts; if they all fail the lease simply expires).
+async fn release(api: &Api, id: &str) {
+    let mut backoff = RETRY;
+    for attempt in 1..=RELEASE_ATTEMPTS {
+        match api.release(id).await {
+            Ok(()) => {
+                debug!(lease = id, "lease given back");
+                return;
+            }
+            Err(CallError::Transient(e)) if attempt < RELEASE_ATTEMPTS => {
+                warn!(lease = id, attempt, "{e}");
+                tokio::time::sleep(backoff.next_delay()).await;
+            }
+            Err(e) => {
+                warn!(lease = id, "cannot give the lease back ({e}); it will expire");
+                return;
             }
         }
     }

@@ -117,9 +117,10 @@ async fn lease(State(mock): State<Arc<Mock>>, Json(req): Json<LeaseRequest>) -> 
 
 async fn heartbeat(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
     let mut log = mock.log();
-    log.heartbeats.push((Instant::now(), id.clone()));
+    let now = Instant::now();
+    log.heartbeats.push((now, id.clone()));
     if log.kill_on_heartbeat.contains(&id) {
-        log.killed_at.get_or_insert_with(Instant::now);
+        log.killed_at.get_or_insert(now);
         return problem(StatusCode::CONFLICT, "lease expired or job canceled");
     }
     Json(Heartbeat { deadline_ms: 30_000 }).into_response()
@@ -300,7 +301,7 @@ async fn renders_every_lease_bit_exactly_with_one_scene_download() {
     wait_until("four results arrive", Duration::from_secs(30), || mock.log().results.len() == 4).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 3, units_stale: 1, units_canceled: 0 });
+    assert_eq!(report, WorkerReport { units_done: 3, units_stale: 1, units_canceled: 0, busy: report.busy });
     let log = mock.log();
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["a", "b", "c", "d"]);
@@ -318,29 +319,29 @@ async fn renders_every_lease_bit_exactly_with_one_scene_download() {
     assert!(log.released.is_empty());
 }
 
-/// (2) A 409 on a heartbeat cancels a long unit: the render stops and the worker asks for more
-/// work well within a second, then renders the next unit normally.
+/// (2) A 409 on a heartbeat cancels a long unit: the render stops and the worker goes on with
+/// the next unit (prefetched meanwhile) well within a second.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_409_heartbeat_cancels_a_long_unit_quickly() {
-    // Heartbeats every 100 ms; the first one for "long" answers 409.
-    // The first unit warms the scene cache, so "long" is surely rendering at its first heartbeat.
+    // Heartbeats every 100 ms. Once "long" renders (the worker prefetches the next lease as it
+    // starts a unit, so the third lease request means "long" is in hand), its heartbeats answer 409.
     let mock = Mock::new(300, vec![small("warm", 0, [0, 2]), long("long"), small("next", 8, [0, 2])]);
-    mock.log().kill_on_heartbeat.insert("long".into());
     let base = start(&mock).await;
     let worker = spawn_worker(&base);
+    wait_until("\"long\" is in hand", Duration::from_secs(30), || mock.log().lease_requests.len() >= 3).await;
+    mock.log().kill_on_heartbeat.insert("long".into());
     wait_until("the next unit's result arrives", Duration::from_secs(30), || mock.log().results.len() == 2).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 1 });
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 1, busy: report.busy });
     let log = mock.log();
     let killed = log.killed_at.expect("a heartbeat was refused");
-    let next_request = log.lease_requests.iter().map(|r| r.0).find(|&t| t > killed).expect("a lease request after the 409");
-    let reaction = next_request - killed;
-    assert!(reaction < Duration::from_secs(1), "the render took {reaction:?} to stop after the 409");
+    let reaction = log.results[1].3 - killed;
+    assert!(reaction < Duration::from_secs(1), "the next unit's result came {reaction:?} after the 409");
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["warm", "next"], "the canceled unit is never uploaded");
     assert_bit_exact(&log.results[1].2, &params(16, 8));
-    assert_eq!(log.heartbeats.iter().filter(|h| h.1 == "long").count(), 1, "no heartbeats after the 409");
+    assert_eq!(log.heartbeats.iter().filter(|h| h.1 == "long" && h.0 >= killed).count(), 1, "no heartbeats after the 409");
     assert!(log.released.is_empty(), "a lost lease is dropped, not released");
 }
 
@@ -428,7 +429,7 @@ async fn shutdown_gives_back_an_unfinished_unit() {
     wait_until("the long unit is rendering", Duration::from_secs(30), || mock.log().heartbeats.iter().any(|h| h.1 == "long")).await;
     let (report, took) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 1 });
+    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 1, busy: report.busy });
     assert!(took < SHUTDOWN_GRACE + Duration::from_secs(2), "shutdown took {took:?}");
     let log = mock.log();
     assert_eq!(log.released, ["long"]);
@@ -442,16 +443,18 @@ async fn shutdown_lets_the_unit_in_hand_finish_within_the_grace() {
     let mock = Mock::new(300, vec![small("warm", 0, [0, 2]), small("in-hand", 8, [0, 512])]);
     let base = start(&mock).await;
     let worker = spawn_worker(&base);
-    wait_until("the second unit is leased", Duration::from_secs(30), || mock.log().lease_requests.len() >= 2).await;
-    tokio::time::sleep(Duration::from_millis(50)).await; // the lease reaches the worker
+    // The third request is the prefetch started as "in-hand" began.
+    wait_until("the second unit is in hand", Duration::from_secs(30), || mock.log().lease_requests.len() >= 3).await;
+    let stopped_at = Instant::now();
     let (report, _) = worker.stop(Duration::from_secs(15)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 0 });
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 0, busy: report.busy });
     let log = mock.log();
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["warm", "in-hand"]);
     assert!(log.released.is_empty());
-    assert_eq!(log.lease_requests.len(), 2, "no new lease after shutdown");
+    // (A poll issued just as the test asked for shutdown may land a moment later.)
+    assert!(log.lease_requests.iter().all(|r| r.0 < stopped_at + Duration::from_millis(50)), "no new lease request after shutdown");
 }
 
 /// A result upload that fails with 503 is retried until it is merged.
@@ -464,7 +467,7 @@ async fn retries_a_failing_upload() {
     wait_until("the third attempt arrives", Duration::from_secs(30), || mock.log().results.len() == 3).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 0 });
+    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 0, busy: report.busy });
     let log = mock.log();
     assert!(log.results.iter().all(|r| r.0 == "a" && r.2 == log.results[0].2));
     assert_bit_exact(&log.results[2].2, &params(16, 8));
@@ -535,4 +538,95 @@ async fn frames_of_an_animation_refit_and_report_how_their_scene_was_prepared() 
         let expected = render_tile(&scene, &settings, convert::tile(got.tile), 0..2).unwrap();
         assert_eq!(body, &to_wire(&expected, got.samples).encode(), "{id}");
     }
+}
+
+/// The next lease is requested as a unit starts, before its result is uploaded, and rendered
+/// right after it; every unit is still uploaded bit-exactly, in lease order.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn requests_the_next_lease_while_a_unit_renders() {
+    let mock = Mock::new(3000, vec![small("a", 0, [0, 2]), small("b", 8, [0, 256]), small("c", 0, [2, 4])]);
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("three results arrive", Duration::from_secs(30), || mock.log().results.len() == 3).await;
+    let (report, _) = worker.stop(Duration::from_secs(10)).await;
+
+    assert_eq!(report, WorkerReport { units_done: 3, units_stale: 0, units_canceled: 0, busy: report.busy });
+    assert!(report.busy > Duration::ZERO);
+    let log = mock.log();
+    let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
+    assert_eq!(ids, ["a", "b", "c"]);
+    // Request i answered lease i: "b" was asked for before "a"'s result came, "c" before "b"'s.
+    assert!(log.lease_requests[1].0 < log.results[0].3, "\"b\" is requested while \"a\" renders");
+    assert!(log.lease_requests[2].0 < log.results[1].3, "\"c\" is requested while \"b\" renders");
+    for (_, _, body, _) in &log.results {
+        assert_bit_exact(body, &params(16, 8));
+    }
+    assert!(log.released.is_empty());
+}
+
+/// Starts a worker on [warm, long, `then`...] (heartbeats every 100 ms) and waits until the
+/// first of `then` is prefetched and has been heartbeated `beats` times while "long" renders.
+async fn prefetch_during_long(then: Vec<Step>, beats: usize) -> (Arc<Mock>, Running) {
+    let mut script = vec![small("warm", 0, [0, 2]), long("long")];
+    script.extend(then);
+    let mock = Mock::new(300, script);
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("the prefetched lease is heartbeated", Duration::from_secs(30), || {
+        mock.log().heartbeats.iter().filter(|h| h.1 != "warm" && h.1 != "long").count() >= beats
+    })
+    .await;
+    (mock, worker)
+}
+
+/// A prefetched lease is kept alive while it waits, then rendered once the unit in hand ends.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_prefetched_lease_is_heartbeated_while_it_waits() {
+    let (mock, worker) = prefetch_during_long(vec![small("next", 8, [0, 2])], 3).await;
+    assert!(mock.log().results.iter().all(|r| r.0 == "warm"), "\"next\" waits for \"long\"");
+    mock.log().kill_on_heartbeat.insert("long".into());
+    wait_until("\"next\"'s result arrives", Duration::from_secs(30), || mock.log().results.len() == 2).await;
+    let (report, _) = worker.stop(Duration::from_secs(10)).await;
+
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 1, busy: report.busy });
+    let log = mock.log();
+    assert_eq!(log.results[1].0, "next");
+    assert_bit_exact(&log.results[1].2, &params(16, 8));
+    assert!(log.released.is_empty());
+}
+
+/// A prefetched lease that answers 409 on a heartbeat is dropped (not released, never
+/// rendered); the worker prefetches another and carries on.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_prefetched_lease_lost_while_waiting_is_dropped() {
+    let (mock, worker) = prefetch_during_long(vec![small("doomed", 8, [0, 2]), small("next", 8, [0, 2])], 1).await;
+    mock.log().kill_on_heartbeat.insert("doomed".into());
+    wait_until("\"next\" is prefetched and heartbeated", Duration::from_secs(30), || mock.log().heartbeats.iter().any(|h| h.1 == "next")).await;
+    mock.log().kill_on_heartbeat.insert("long".into());
+    wait_until("\"next\"'s result arrives", Duration::from_secs(30), || mock.log().results.len() == 2).await;
+    let (report, _) = worker.stop(Duration::from_secs(10)).await;
+
+    // "doomed" (lost while waiting) and "long" (lost while rendering) count as canceled.
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 2, busy: report.busy });
+    let log = mock.log();
+    let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
+    assert_eq!(ids, ["warm", "next"]);
+    let killed = log.killed_at.expect("a heartbeat was refused");
+    assert_eq!(log.heartbeats.iter().filter(|h| h.1 == "doomed" && h.0 >= killed).count(), 1, "no heartbeats after the 409");
+    assert!(log.released.is_empty(), "a lost lease is dropped, not released");
+}
+
+/// Shutdown gives a prefetched lease back at once (DELETE), before the unit in hand's grace ends.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shutdown_gives_back_a_prefetched_lease() {
+    let (mock, worker) = prefetch_during_long(vec![small("next", 8, [0, 2])], 1).await;
+    let stopping = tokio::spawn(worker.stop(Duration::from_secs(10)));
+    wait_until("\"next\" is given back", SHUTDOWN_GRACE / 2, || mock.log().released.iter().any(|r| r == "next")).await;
+    let (report, took) = stopping.await.unwrap();
+
+    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 2, busy: report.busy });
+    assert!(took < SHUTDOWN_GRACE + Duration::from_secs(2), "shutdown took {took:?}");
+    let log = mock.log();
+    assert_eq!(log.released, ["next", "long"]);
+    assert_eq!(log.results.len(), 1, "only the warm-up unit is uploaded");
 }

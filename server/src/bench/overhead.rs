@@ -1,0 +1,183 @@
+//! `tessera-bench overhead`: the same job rendered by the tracer alone and through a coordinator
+//! + 1 worker over loopback HTTP (issue #3: target ≤ 3 %).
+//!
+//! A 2-core VM shared with other work drifts by ±10 % from run to run, more than the overhead
+//! itself, so the two paths run in pairs (alone then farm, farm then alone, alternating), and the
+//! report gives the fastest of each, the median of each and the median of the per-pair ratios.
+//! Within each farm run the worker's idle time is measured directly: the job's wall time on the
+//! coordinator's clock minus the time the worker's pool spent rendering (its report's `busy`),
+//! which no drift between runs can blur.
+use crate::bundled;
+use crate::local::{LocalFarm, with_farm_reports};
+use std::time::Instant;
+use tessera_proto::JobRequest;
+use tessera_worker::client::render_settings;
+use tessera_worker::tracer::{RenderSettings, Scene, Tile, render_tile};
+
+#[derive(Clone, Debug, clap::Args)]
+pub struct OverheadBench {
+    #[arg(long, default_value = "cornell-box")]
+    pub scene: String,
+    /// Frame width and height in pixels.
+    #[arg(long, default_value_t = 256)]
+    pub size: u32,
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    /// Pairs of runs (tracer alone + farm, which goes first alternating).
+    #[arg(long, default_value_t = 5)]
+    pub repeats: u32,
+    /// Samples per pixel in one unit (the tracer-alone run renders the same units).
+    #[arg(long, default_value_t = 16)]
+    pub batch_spp: u32,
+}
+
+const TILE: u32 = 64;
+
+/// One farm run's phases, in seconds from the start of the run.
+#[derive(Clone, Copy, Debug)]
+struct FarmRun {
+    /// Coordinator and worker started.
+    up: f64,
+    /// Submit to done, on the coordinator's clock.
+    job: f64,
+    /// The client saw the job done.
+    seen: f64,
+    /// EXR downloaded.
+    exr: f64,
+    /// Farm stopped: the whole run.
+    total: f64,
+    /// The worker's pool rendering (its report).
+    busy: f64,
+}
+
+pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
+    let scene = bundled::load(&b.scene)?;
+    let settings = settings(b.size)?;
+    let rt = tokio::runtime::Runtime::new()?;
+    let (mut alone, mut farm) = (Vec::new(), Vec::new());
+    for r in 0..b.repeats.max(1) {
+        let farm_first = r % 2 == 1;
+        if farm_first {
+            farm.push(farm_run(&rt, b, r)?);
+        }
+        alone.push(alone_run(&scene, &settings, b)?);
+        if !farm_first {
+            farm.push(farm_run(&rt, b, r)?);
+        }
+        let f = farm[farm.len() - 1];
+        eprintln!(
+            "  pair {r} ({}): alone {:.3} s | farm up {:.3}, job {:.3} (coordinator), done seen {:.3}, EXR {:.3}, stopped {:.3} s; worker busy {:.3} s, idle in job {:.3} s",
+            if farm_first { "farm first" } else { "alone first" },
+            alone[alone.len() - 1],
+            f.up,
+            f.job,
+            f.seen,
+            f.exr,
+            f.total,
+            f.busy,
+            f.job - f.busy
+        );
+    }
+    report(b, &alone, &farm);
+    Ok(())
+}
+
+fn report(b: &OverheadBench, alone: &[f64], farm: &[FarmRun]) {
+    let n = alone.len();
+    let totals: Vec<f64> = farm.iter().map(|f| f.total).collect();
+    let ratios: Vec<f64> = alone.iter().zip(&totals).map(|(a, f)| f / a).collect();
+    let pct = |r: f64| (r - 1.0) * 100.0;
+    let (fast_a, fast_f) = (min(alone), min(&totals));
+    let (med_a, med_f) = (median(alone), median(&totals));
+    let samples = f64::from(b.size) * f64::from(b.size) * f64::from(b.spp);
+    println!("overhead: {} {}x{} {} spp, units {TILE}x{TILE}x{}, {n} pairs (alone/farm interleaved)", b.scene, b.size, b.size, b.spp, b.batch_spp);
+    println!("                          fastest     median");
+    println!("  tracer alone           {fast_a:8.3} s {med_a:8.3} s  {:>10.0} samples/s (fastest)", samples / fast_a);
+    println!("  coordinator + 1 worker {fast_f:8.3} s {med_f:8.3} s  {:>10.0} samples/s (fastest; incl. scene load, EXR encode and download)", samples / fast_f);
+    println!("  overhead               {:+7.2} %  {:+7.2} %", pct(fast_f / fast_a), pct(med_f / med_a));
+    println!("  overhead, median of the per-pair ratios {:+6.2} %  (pairs: {})", pct(median(&ratios)), list(&ratios, |r| format!("{:+.1}", pct(r))));
+    // Within-run accounting, medians over the farm runs.
+    let med = |f: fn(&FarmRun) -> f64| median(&farm.iter().map(f).collect::<Vec<_>>());
+    let idle = med(|f| f.job - f.busy);
+    let fixed = med(|f| f.total - f.job);
+    println!("  farm run breakdown (medians): worker idle in the job {:.3} s = {:.2} % of the job; fixed costs (start, EXR, stop) {fixed:.3} s = {:.2} % of the run; render busy {:.3} s vs alone {med_a:.3} s ({:+.2} %)",
+        idle, med(|f| (f.job - f.busy) / f.job) * 100.0, med(|f| (f.total - f.job) / f.total) * 100.0, med(|f| f.busy), pct(med(|f| f.busy) / med_a));
+}
+
+fn list(v: &[f64], f: impl Fn(f64) -> String) -> String {
+    v.iter().map(|&x| f(x)).collect::<Vec<_>>().join(" ")
+}
+
+fn min(v: &[f64]) -> f64 {
+    v.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    match s.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => s[n / 2],
+        n => (s[n / 2 - 1] + s[n / 2]) / 2.0,
+    }
+}
+
+/// The settings both paths render with: a square frame, `mis` + Sobol, seed 0.
+pub fn settings(size: u32) -> anyhow::Result<RenderSettings> {
+    let params = tessera_proto::RenderParams {
+        width: size,
+        height: size,
+        seed: 0,
+        estimator: "mis".into(),
+        sampler: "sobol".into(),
+        camera: None,
+        max_depth: 1024,
+        background: [0.0; 3],
+        animation: None,
+        fps: tessera_proto::job::DEFAULT_FPS,
+    };
+    render_settings(&params).map_err(anyhow::Error::msg)
+}
+
+/// The tracer alone, unit by unit in the farm's order (batches outer, tiles inner); seconds.
+fn alone_run(scene: &Scene, settings: &RenderSettings, b: &OverheadBench) -> anyhow::Result<f64> {
+    let (size, spp, batch) = (b.size, b.spp, b.batch_spp);
+    let t = Instant::now();
+    for k in 0..spp.div_ceil(batch) {
+        for y0 in (0..size).step_by(TILE as usize) {
+            for x0 in (0..size).step_by(TILE as usize) {
+                let tile = Tile { x0, y0, w: TILE.min(size - x0), h: TILE.min(size - y0) };
+                render_tile(scene, settings, tile, k * batch..((k + 1) * batch).min(spp)).map_err(anyhow::Error::msg)?;
+            }
+        }
+    }
+    Ok(t.elapsed().as_secs_f64())
+}
+
+/// The same job through a local coordinator + 1 worker (all cores), EXR downloaded.
+fn farm_run(rt: &tokio::runtime::Runtime, b: &OverheadBench, r: u32) -> anyhow::Result<FarmRun> {
+    let data = std::env::temp_dir().join(format!("tessera-bench-{}-{r}", std::process::id()));
+    let req = JobRequest {
+        scene: b.scene.clone(),
+        width: b.size,
+        height: b.size,
+        spp: Some(b.spp),
+        tile_size: Some(TILE),
+        batch_spp: Some(b.batch_spp),
+        ..JobRequest::default()
+    };
+    let t = Instant::now();
+    let (phases, reports) = rt.block_on(with_farm_reports(&data, LocalFarm::default(), |c| async move {
+        let up = t.elapsed().as_secs_f64();
+        let j = c.submit(&req).await?;
+        let done = c.wait(&j.id, |_| {}).await?;
+        let seen = t.elapsed().as_secs_f64();
+        c.bytes(&format!("/v1/jobs/{}/image.exr", j.id)).await?;
+        anyhow::Ok((up, done.elapsed_s, seen, t.elapsed().as_secs_f64()))
+    }))?;
+    let total = t.elapsed().as_secs_f64();
+    let _ = std::fs::remove_dir_all(&data);
+    let busy = reports.first().copied().flatten().map_or(f64::NAN, |w| w.busy.as_secs_f64());
+    let (up, job, seen, exr) = phases;
+    Ok(FarmRun { up, job, seen, exr, total, busy })
+}
