@@ -17,6 +17,7 @@ fn render_writes_an_exr_with_every_layer_and_a_preview() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("samples/s"), "prints throughput: {stdout}");
+    assert!(stdout.contains("scene load + BVH build"), "prints what preparing the scene cost: {stdout}");
     let (img, meta) = decode_exr(&std::fs::read(&exr).unwrap()).unwrap();
     assert_eq!((img.width, img.height), (48, 32));
     assert!(img.samples.iter().all(|&s| s == 8.0));

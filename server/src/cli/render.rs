@@ -50,8 +50,10 @@ async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> 
     }
     let secs = start.elapsed().as_secs_f64();
     let samples = job.progress.samples_done * (a.job.width as f64 * a.job.height as f64) * job.frames.len().max(1) as f64;
+    // What the workers reported for loading the scene and building (or refitting) its BVH.
+    let prepare_ms: f64 = job.frames.iter().map(|f| f.prepare_ms).sum();
     println!(
-        "{}: {}x{} at {:.0} spp in {:.2} s ({:.0} samples/s); estimated relMSE {:.3e}; dropped {} non-finite samples; max sample weight {:.3}; effects: {}",
+        "{}: {}x{} at {:.0} spp in {:.2} s ({:.0} samples/s); estimated relMSE {:.3e}; dropped {} non-finite samples; max sample weight {:.3}; effects: {}; scene load + BVH build {:.0} ms",
         files_label(&files),
         a.job.width,
         a.job.height,
@@ -61,7 +63,8 @@ async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> 
         job.noise.unwrap_or(0.0),
         job.dropped_samples,
         job.max_sample_weight,
-        job.effects.join(", ")
+        job.effects.join(", "),
+        prepare_ms
     );
     Ok(())
 }
