@@ -51,7 +51,8 @@ enum Cmd {
     /// study's scenes, and time to a noise target vs tile and batch size through a local farm.
     /// Writes a markdown report and one SVG plot per scene.
     Accuracy(tessera_server::bench::accuracy::Options),
-    /// A generated ~1M-triangle scene: BVH build time, incoherent rays/s, peak memory.
+    /// A generated ~1M-triangle scene: BVH build time, incoherent rays/s (ours and obvhs's stock
+    /// traversal on the same rays), peak memory.
     Bvh(tessera_server::bench::bvh::BvhBench),
     /// An animation job (frames 0..N−1) on local workers with frame affinity on and off.
     Frames(tessera_server::bench::frames::FramesBench),
