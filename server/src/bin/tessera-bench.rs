@@ -12,7 +12,8 @@
 //!                              sampler and roulette, plus tile/batch sizes through a local farm;
 //!                              writes docs/accuracy/ (tessera_server::bench::accuracy).
 //! `tessera-bench bvh`        — a generated ~1M-triangle scene: BVH build time, incoherent rays per
-//!                              second (one core, all cores), peak resident memory.
+//!                              second (one core, all cores; obvhs's stock traversal on the same rays),
+//!                              peak resident memory.
 //! `tessera-bench frames`     — an animation job on local workers with frame affinity on and off:
 //!                              time per frame and the scene builds/refits workers reported.
 //! `tessera-bench mitsuba`    — time to quality (relMSE × seconds) on the Cornell box against
