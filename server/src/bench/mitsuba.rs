@@ -18,6 +18,7 @@
 //!   over them and the time the fastest (this machine's run-to-run noise is one-sided).
 //!
 //! Without Mitsuba the command renders Tessera's side and says how to install it.
+use super::accuracy::measure::rel_mse;
 use super::accuracy::reference::{self, Reference};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -184,18 +185,10 @@ fn roulette(depth: u32) -> Roulette {
 }
 
 /// relMSE with the reference's own expected share removed: E[(x − r)²] = E[(x − μ)²] + Var(r)
-/// for a reference r independent of x.
+/// for a reference r independent of x, so the reference's noise floor (the same terms, same
+/// weights) is subtracted from the plain relMSE.
 pub fn rel_mse_above_reference(means: impl Iterator<Item = [f64; 3]>, reference: &Reference) -> f64 {
-    let mut acc = 0.0;
-    let mut n = 0usize;
-    for ((m, r), v) in means.zip(&reference.means).zip(&reference.variance) {
-        for c in 0..3 {
-            let d = r[c] + 0.01;
-            acc += ((m[c] - r[c]).powi(2) - v[c]) / (d * d);
-        }
-        n += 3;
-    }
-    acc / n.max(1) as f64
+    rel_mse(means, &reference.means) - reference.noise_floor()
 }
 
 /// Runs the Mitsuba script at `spp` for every sampler and reads back its images.

@@ -285,14 +285,13 @@ fn tree_scale<'a>(tris: impl Iterator<Item = &'a [Vec3; 3]>) -> f32 {
 /// Per-ray constants of the watertight test: the axis permutation and shear that map the ray
 /// to +z through the origin.
 struct WatertightRay {
-    origin: Vec3,
+    origin: Vec3A,
     perm: [usize; 3],
     shear: Vec3,
     /// The permutation and the x, y shears as one matrix (rows: e_kx + sx·e_kz, e_ky + sy·e_kz,
     /// e_kz), so a vertex is transformed by three SIMD multiply-adds instead of indexed loads.
     /// Each row product is p[k] + s·p[kz] plus exact zeros: the same bits as the scalar form.
     rows: Mat3A,
-    origin_a: Vec3A,
 }
 
 impl WatertightRay {
@@ -307,12 +306,12 @@ impl WatertightRay {
         let row_y = unit(ky) + unit(kz) * shear.y;
         // Columns of the transpose: rows[i] becomes component i of the product.
         let rows = Mat3A::from_cols(row_x, row_y, unit(kz)).transpose();
-        WatertightRay { origin, perm: [kx, ky, kz], shear, rows, origin_a: Vec3A::from(origin) }
+        WatertightRay { origin: Vec3A::from(origin), perm: [kx, ky, kz], shear, rows }
     }
 
     #[inline]
     fn transform(&self, v: Vec3) -> Vec3 {
-        Vec3::from(self.rows * (Vec3A::from(v) - self.origin_a))
+        Vec3::from(self.rows * (Vec3A::from(v) - self.origin))
     }
 }
 
