@@ -53,7 +53,7 @@ async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> 
     // What the workers reported for loading the scene and building (or refitting) its BVH.
     let prepare_ms: f64 = job.frames.iter().map(|f| f.prepare_ms).sum();
     println!(
-        "{}: {}x{} at {:.0} spp in {:.2} s ({:.0} samples/s); estimated relMSE {:.3e}; dropped {} non-finite samples; max sample weight {:.3}; effects: {}; scene load + BVH build {:.0} ms",
+        "{}: {}x{} at {:.0} spp in {:.2} s ({:.0} samples/s); estimated relMSE {:.3e}; dropped {} non-finite samples; max sample weight {:.3}; effects: {}; scene load + BVH build {:.1} ms",
         files_label(&files),
         a.job.width,
         a.job.height,
