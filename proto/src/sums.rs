@@ -123,26 +123,38 @@ impl PartialSums {
             return err("largest path weight is not a finite number ≥ 0");
         }
         let per_pixel = (samples[1] - samples[0]) as u64;
-        let mut pixels = Vec::with_capacity(n);
-        let mut counted = 0u64;
-        for i in 0..n {
-            let o = HEADER_LEN + i * PIXEL_LEN;
-            let f: [f64; 7] = std::array::from_fn(|k| f64_at(o + 8 * k));
-            let count = u64_at(o + 56);
-            if f.iter().any(|v| !v.is_finite()) || f[3..].iter().any(|v| *v < 0.0) {
-                return err(format!("pixel {i}: sums must be finite and squares ≥ 0"));
-            }
-            if count > per_pixel {
-                return err(format!("pixel {i}: {count} samples, more than the range's {per_pixel}"));
-            }
-            counted += count;
-            pixels.push(WirePixel { sum: [f[0], f[1], f[2]], sum_sq: [f[3], f[4], f[5]], sum_lum_sq: f[6], count });
+        let pixels: Vec<WirePixel> = bytes[HEADER_LEN..].chunks_exact(PIXEL_LEN).map(wire_pixel).collect();
+        // Checked in one branch-free pass (a result is hundreds of kilobytes and the coordinator
+        // decodes thousands a second); only a bad body is searched for its first bad pixel.
+        let all_valid = pixels.iter().fold(true, |ok, p| ok & valid(p, per_pixel));
+        if !all_valid {
+            let (i, p) = pixels.iter().enumerate().find(|(_, p)| !valid(p, per_pixel)).expect("a pixel is invalid");
+            return err(match p.count > per_pixel {
+                true => format!("pixel {i}: {} samples, more than the range's {per_pixel}", p.count),
+                false => format!("pixel {i}: sums must be finite and squares ≥ 0"),
+            });
         }
-        if counted.checked_add(dropped) != Some(per_pixel * n as u64) {
-            return err(format!("{counted} samples counted + {dropped} dropped ≠ {} in the unit", per_pixel * n as u64));
+        let counted = pixels.iter().try_fold(0u64, |a, p| a.checked_add(p.count));
+        let in_unit = per_pixel.checked_mul(n as u64);
+        let (Some(counted), Some(in_unit)) = (counted, in_unit) else { return err("sample counts overflow 64 bits") };
+        if counted.checked_add(dropped) != Some(in_unit) {
+            return err(format!("{counted} samples counted + {dropped} dropped ≠ {in_unit} in the unit"));
         }
         Ok(PartialSums { tile, samples, dropped, max_weight, pixels })
     }
+}
+
+fn wire_pixel(b: &[u8]) -> WirePixel {
+    let f = |k: usize| f64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"));
+    let count = u64::from_le_bytes(b[56..64].try_into().expect("8 bytes"));
+    WirePixel { sum: [f(0), f(1), f(2)], sum_sq: [f(3), f(4), f(5)], sum_lum_sq: f(6), count }
+}
+
+/// Finite sums, squares ≥ 0, at most the unit's samples per pixel.
+fn valid(p: &WirePixel, per_pixel: u64) -> bool {
+    let finite = p.sum.iter().chain(&p.sum_sq).fold(p.sum_lum_sq.is_finite(), |ok, v| ok & v.is_finite());
+    let squares = p.sum_sq.iter().fold(p.sum_lum_sq >= 0.0, |ok, v| ok & (*v >= 0.0));
+    finite & squares & (p.count <= per_pixel)
 }
 
 #[cfg(test)]

@@ -36,6 +36,7 @@ pub fn app(state: AppState) -> Router {
         .routes(routes!(images::frames_zip))
         .routes(routes!(events::events))
         .routes(routes!(leases::register, leases::list))
+        .routes(routes!(leases::deregister))
         .routes(routes!(leases::lease))
         .routes(routes!(leases::heartbeat))
         .routes(routes!(leases::release))

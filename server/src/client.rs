@@ -55,8 +55,13 @@ impl Coordinator {
         Ok(resp.bytes().await?.to_vec())
     }
 
-    /// Polls until the job ends, calling `progress` with each status.
+    /// Follows the job until it ends, calling `progress` with each status: over its event
+    /// stream (SSE), which tells of the end at once, or by polling every `poll` when the stream
+    /// cannot be opened or breaks off.
     pub async fn wait(&self, id: &str, mut progress: impl FnMut(&Job)) -> anyhow::Result<Job> {
+        if let Some(job) = self.follow_events(id, &mut progress).await {
+            return Ok(job);
+        }
         loop {
             let job = self.job(id).await?;
             progress(&job);
@@ -66,6 +71,46 @@ impl Coordinator {
             tokio::time::sleep(self.poll).await;
         }
     }
+
+    /// The job's `progress` events up to its final state; None when the stream ends first.
+    async fn follow_events(&self, id: &str, progress: &mut impl FnMut(&Job)) -> Option<Job> {
+        let mut resp = self.req(reqwest::Method::GET, &format!("/v1/jobs/{id}/events")).send().await.ok()?;
+        if !resp.status().is_success() {
+            return None;
+        }
+        let mut buf = Vec::new();
+        while let Some(chunk) = resp.chunk().await.ok()? {
+            buf.extend_from_slice(&chunk);
+            while let Some(end) = buf.windows(2).position(|w| w == b"\n\n") {
+                let event: Vec<u8> = buf.drain(..end + 2).collect();
+                if let Some(job) = progress_event(&String::from_utf8_lossy(&event)) {
+                    progress(&job);
+                    if job.state.is_final() {
+                        return Some(job);
+                    }
+                }
+            }
+        }
+        None
+    }
+}
+
+/// The job carried by one server-sent event, if it is a `progress` event (not `end`, not a
+/// keep-alive comment).
+fn progress_event(event: &str) -> Option<Job> {
+    let mut kind = "message";
+    let mut data = String::new();
+    for line in event.lines() {
+        if let Some(v) = line.strip_prefix("event:") {
+            kind = v.trim();
+        } else if let Some(v) = line.strip_prefix("data:") {
+            if !data.is_empty() {
+                data.push('\n');
+            }
+            data.push_str(v.strip_prefix(' ').unwrap_or(v));
+        }
+    }
+    (kind == "progress").then(|| serde_json::from_str(&data).ok()).flatten()
 }
 
 async fn json_or_problem<T: serde::de::DeserializeOwned>(resp: reqwest::Response) -> anyhow::Result<T> {
@@ -105,3 +150,26 @@ pub async fn scene_ref(c: &Coordinator, scene: &str) -> anyhow::Result<String> {
     Ok(c.upload_scene(bytes, binary).await?.id)
 }
 
+
+#[cfg(test)]
+mod tests {
+    use super::progress_event;
+
+    #[test]
+    fn reads_progress_events_and_skips_the_rest() {
+        let job = serde_json::json!({
+            "id": "j1", "state": "done", "scene": "s", "request": tessera_proto::JobRequest::default(),
+            "progress": {"samples_done": 4.0, "samples_target": 4.0, "fraction": 1.0},
+            "noise": null, "elapsed_s": 1.0, "eta_s": null, "samples_per_s": 1.0, "workers": 0, "effects": [],
+            "history": [], "dropped_samples": 0, "max_sample_weight": 1.0, "message": null, "created_unix_ms": 0
+        });
+        let event = format!("event: progress\ndata: {job}\n\n");
+        match progress_event(&event) {
+            Some(j) => assert_eq!((j.id.as_str(), j.state.is_final()), ("j1", true)),
+            None => panic!("a progress event with a job: {event}"),
+        }
+        assert!(progress_event(":\n\n").is_none(), "keep-alive comment");
+        assert!(progress_event("event: end\ndata: j1\n\n").is_none());
+        assert!(progress_event("event: progress\ndata: {not json\n\n").is_none());
+    }
+}

@@ -1,63 +1,145 @@
 //! `tessera-bench bvh`: a generated scene of about a million triangles — a grid of displaced
-//! spheres — its BVH build time, incoherent closest-hit rays per second (one core, then all),
-//! the same rays through obvhs's stock traversal and triangle test (the yardstick of issue #9:
-//! our watertight, tree-space-scaled path should keep ≥ 70 % of its speed), and the process's
-//! peak resident memory.
+//! spheres — or a bundled scene (`--scene cornell-box`): its BVH build time, incoherent
+//! closest-hit rays per second (one core, then all), the same rays through obvhs's stock
+//! traversal and triangle test, a path-traced render's rays per second on one core against both
+//! (issue #9: rendering should keep ≥ 70 % of the traversal rate, i.e. shading and sampling cost
+//! less than tracing), and the process's peak resident memory.
 //!
-//! The scene is generated here (no mesh file is shipped): `spheres`² spheres on a grid, each a
+//! The field is generated here (no mesh file is shipped): `spheres`² spheres on a grid, each a
 //! UV sphere of `segments` × `segments / 2` quads whose radius wobbles by ±15 %
-//! (sin 5θ · sin 7φ), so the triangles are small, numerous and not axis-aligned.
+//! (sin 5θ · sin 7φ), so the triangles are small, numerous and not axis-aligned. For the render
+//! the spheres are grey Lambert under a square area light that overhangs the field.
+use crate::bench::overhead::settings;
+use glam::{Mat4, Vec3};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::time::Instant;
-use tessera_worker::tracer::accel::{Accel, BvhKind};
+use tessera_worker::tracer::camera::Camera;
+use tessera_worker::tracer::material::Material;
 use tessera_worker::tracer::ray::Ray;
-use glam::Vec3;
+use tessera_worker::tracer::scene::Mesh;
+use tessera_worker::tracer::{Scene, render_tile};
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct BvhBench {
     /// Triangles to generate (rounded to whole spheres).
     #[arg(long, default_value_t = 1_000_000)]
     pub triangles: usize,
-    /// Random rays to trace (origins inside the field, uniform directions).
+    /// Random rays to trace (origins inside the scene's bounds, uniform directions).
     #[arg(long, default_value_t = 1_000_000)]
     pub rays: usize,
+    /// A bundled scene (or a glTF path) instead of the generated field.
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// The render's width and height in pixels (`mis` + Sobol, one thread).
+    #[arg(long, default_value_t = 128)]
+    pub size: u32,
+    /// The render's samples per pixel.
+    #[arg(long, default_value_t = 16)]
+    pub spp: u32,
 }
 
 pub fn run(b: &BvhBench) -> anyhow::Result<()> {
-    let tris = sphere_field(b.triangles);
-    let t0 = Instant::now();
-    let accel = Accel::build(&tris, BvhKind::Wide);
-    let build = t0.elapsed().as_secs_f64();
-    println!("{} triangles (displaced spheres): wide BVH built in {:.3} s on {} threads", tris.len(), build, rayon::current_num_threads());
-    let rays = random_rays(b.rays, field_size(b.triangles));
+    // Random rays start anywhere in the geometry's box (for the field: the spheres', not the light's).
+    let (scene, build, label, ray_box) = match &b.scene {
+        Some(name) => {
+            let t = Instant::now();
+            let scene = crate::bundled::load(name)?;
+            let build = t.elapsed().as_secs_f64();
+            let ray_box = bounds(&scene.mesh.positions);
+            (scene, build, format!("{name}, loaded"), ray_box)
+        }
+        None => {
+            let spheres = sphere_field(b.triangles);
+            let ray_box = bounds(&spheres);
+            let (mesh, materials, camera) = field_parts(spheres);
+            let t = Instant::now();
+            let scene = Scene::new(mesh, materials, vec![], vec![camera], vec![]);
+            (scene, t.elapsed().as_secs_f64(), "displaced spheres under a light".to_string(), ray_box)
+        }
+    };
+    let accel = &scene.accel;
+    println!(
+        "{} triangles ({label}): scene (wide BVH, lights, bounds) built in {:.3} s on {} threads",
+        scene.mesh.len(),
+        build,
+        rayon::current_num_threads()
+    );
+    let rays = random_rays(b.rays, ray_box);
     let trace = |r: &Ray| accel.intersect(r, f32::INFINITY).is_some() as u64;
     let t1 = Instant::now();
     let hits_one: u64 = rays.iter().map(trace).sum();
-    let one = t1.elapsed().as_secs_f64();
+    let one = rays.len() as f64 / t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
     let hits_all: u64 = rays.par_iter().map(trace).sum();
-    let all = t2.elapsed().as_secs_f64();
+    let all = rays.len() as f64 / t2.elapsed().as_secs_f64();
     anyhow::ensure!(hits_one == hits_all, "single- and multi-threaded traversal disagree");
     println!(
         "{} incoherent closest-hit rays ({:.0} % hit): {:.2} M rays/s on one core, {:.2} M rays/s on {} threads",
         rays.len(),
         100.0 * hits_one as f64 / rays.len() as f64,
-        rays.len() as f64 / one / 1e6,
-        rays.len() as f64 / all / 1e6,
+        one / 1e6,
+        all / 1e6,
         rayon::current_num_threads()
     );
-    let stock = obvhs_stock(&tris, &rays);
-    println!(
-        "the same rays through obvhs's own traversal and Möller–Trumbore test: {:.2} M rays/s on one core ({} hits); ours is {:.0} % of it",
-        rays.len() as f64 / stock.1 / 1e6,
-        stock.0,
-        100.0 * stock.1 / one
-    );
+    let (traced, secs) = render_one_core(&scene, b.size, b.spp)?;
     if let Some(kib) = peak_rss_kib() {
-        println!("peak resident memory: {:.0} MiB", kib as f64 / 1024.0);
+        println!("peak resident memory, the scene built, traced and rendered (what a worker holds, plus the {} MiB of random rays): {:.0} MiB", rays.len() * size_of::<Ray>() >> 20, kib as f64 / 1024.0);
     }
+    let (stock_hits, stock_s) = obvhs_stock(&scene.mesh.positions, &rays);
+    let stock = rays.len() as f64 / stock_s;
+    println!("the same rays through obvhs's own traversal and Möller–Trumbore test: {:.2} M rays/s on one core ({stock_hits} hits); ours is {:.0} % of it", stock / 1e6, 100.0 * one / stock);
+    let rendering = traced as f64 / secs;
+    println!(
+        "path tracing it ({0}×{0}, {1} spp, mis + Sobol, camera + bounce + shadow rays): {2:.2} M rays/s on one core ({3:.1} rays per sample) = {4:.0} % of our traversal rate above, {5:.0} % of obvhs's",
+        b.size,
+        b.spp,
+        rendering / 1e6,
+        traced as f64 / (f64::from(b.size * b.size) * f64::from(b.spp)),
+        100.0 * rendering / one,
+        100.0 * rendering / stock
+    );
     Ok(())
+}
+
+/// Renders the whole frame on a pool of one thread; returns the rays traced and the seconds.
+fn render_one_core(scene: &Scene, size: u32, spp: u32) -> anyhow::Result<(u64, f64)> {
+    let settings = settings(size)?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let t = Instant::now();
+    let sums = pool.install(|| render_tile(scene, &settings, settings.full_frame(), 0..spp)).map_err(anyhow::Error::msg)?;
+    Ok((sums.rays, t.elapsed().as_secs_f64()))
+}
+
+/// The field as a scene's parts: grey Lambert spheres, a square light (radiance 3) at y = 6
+/// facing down and overhanging the field by a tenth on every side, and a camera at a corner of
+/// the field looking across it.
+fn field_parts(tris: Vec<[Vec3; 3]>) -> (Mesh, Vec<Material>, Camera) {
+    let size = bounds(&tris).1.x.max(1.0);
+    let mut mesh = Mesh::default();
+    tris.into_iter().for_each(|t| mesh.push_flat(t, 0));
+    let (lo, hi, y) = (-0.1 * size, 1.1 * size, 6.0);
+    let corner = |x: f32, z: f32| Vec3::new(x, y, z);
+    // (+x) × (+z) = −y: both triangles face the field.
+    mesh.push_flat([corner(lo, lo), corner(hi, lo), corner(lo, hi)], 1);
+    mesh.push_flat([corner(hi, lo), corner(hi, hi), corner(lo, hi)], 1);
+    let mut light = Material::lambert("light", Vec3::ZERO);
+    light.emission = Vec3::splat(3.0);
+    let camera = look_at(Vec3::new(-0.1 * size, 3.0, -0.1 * size), Vec3::new(0.5 * size, 0.5, 0.5 * size), 0.8);
+    (mesh, vec![Material::lambert("spheres", Vec3::splat(0.6)), light], camera)
+}
+
+/// A pinhole camera at `eye` looking at `target` (+y up), vertical field of view `yfov`.
+fn look_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
+    let f = (target - eye).normalize();
+    let right = f.cross(Vec3::Y).normalize();
+    let to_world = Mat4::from_cols(right.extend(0.0), right.cross(f).extend(0.0), (-f).extend(0.0), eye.extend(1.0));
+    Camera::pinhole("field", to_world, yfov)
+}
+
+/// The axis-aligned box around the triangles.
+fn bounds(tris: &[[Vec3; 3]]) -> (Vec3, Vec3) {
+    tris.iter().flatten().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)))
 }
 
 const SEGMENTS: usize = 128;
@@ -67,11 +149,6 @@ const PER_SPHERE: usize = SEGMENTS * SEGMENTS;
 
 fn spheres_per_side(triangles: usize) -> usize {
     ((triangles as f64 / PER_SPHERE as f64).sqrt().ceil() as usize).max(1)
-}
-
-/// Edge length of the square field the spheres stand on (spheres 2 apart).
-fn field_size(triangles: usize) -> f32 {
-    spheres_per_side(triangles) as f32 * 2.0
 }
 
 fn sphere_field(triangles: usize) -> Vec<[Vec3; 3]> {
@@ -96,9 +173,9 @@ fn sphere_field(triangles: usize) -> Vec<[Vec3; 3]> {
     tris
 }
 
-/// Rays from random points of the field's bounding box in uniformly random directions
-/// (a fixed xorshift stream, so every run traces the same rays).
-fn random_rays(count: usize, size: f32) -> Vec<Ray> {
+/// Rays from random points of the box `(lo, hi)` in uniformly random directions (a fixed
+/// xorshift stream, so every run traces the same rays).
+fn random_rays(count: usize, (lo, hi): (Vec3, Vec3)) -> Vec<Ray> {
     let mut s = 0x2545_f491_4f6c_dd1d_u64;
     let mut next = move || {
         s ^= s << 13;
@@ -108,7 +185,7 @@ fn random_rays(count: usize, size: f32) -> Vec<Ray> {
     };
     (0..count)
         .map(|_| {
-            let origin = Vec3::new(next() * size, next() * 2.0, next() * size);
+            let origin = lo + (hi - lo) * Vec3::new(next(), next(), next());
             let (z, phi) = (1.0 - 2.0 * next(), 2.0 * PI * next());
             let r = (1.0 - z * z).max(0.0).sqrt();
             Ray::new(origin, Vec3::new(r * phi.cos(), z, r * phi.sin()))

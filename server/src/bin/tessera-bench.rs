@@ -11,9 +11,10 @@
 //! `tessera-bench accuracy`   — the accuracy study (issue #10): relMSE vs time per scene, estimator,
 //!                              sampler and roulette, plus tile/batch sizes through a local farm;
 //!                              writes docs/accuracy/ (tessera_server::bench::accuracy).
-//! `tessera-bench bvh`        — a generated ~1M-triangle scene: BVH build time, incoherent rays per
-//!                              second (one core, all cores; obvhs's stock traversal on the same rays),
-//!                              peak resident memory.
+//! `tessera-bench bvh`        — a generated ~1M-triangle scene (or `--scene NAME`): build time,
+//!                              incoherent rays per second (one core, all cores; obvhs's stock
+//!                              traversal on the same rays), a path-traced render's rays per second
+//!                              against both, peak resident memory (tessera_server::bench::bvh).
 //! `tessera-bench frames`     — an animation job on local workers with frame affinity on and off:
 //!                              time per frame and the scene builds/refits workers reported.
 //! `tessera-bench mitsuba`    — time to quality (relMSE × seconds) on the Cornell box against
@@ -52,8 +53,9 @@ enum Cmd {
     /// study's scenes, and time to a noise target vs tile and batch size through a local farm.
     /// Writes a markdown report and one SVG plot per scene.
     Accuracy(tessera_server::bench::accuracy::Options),
-    /// A generated ~1M-triangle scene: BVH build time, incoherent rays/s (ours and obvhs's stock
-    /// traversal on the same rays), peak memory.
+    /// A generated ~1M-triangle scene (or a bundled one): build time, incoherent rays/s (ours and
+    /// obvhs's stock traversal on the same rays), a path-traced render's rays/s against both,
+    /// peak memory.
     Bvh(tessera_server::bench::bvh::BvhBench),
     /// An animation job (frames 0..N−1) on local workers with frame affinity on and off.
     Frames(tessera_server::bench::frames::FramesBench),
@@ -70,6 +72,12 @@ enum Cmd {
         tile: u32,
     },
 }
+
+/// The coordinator receives each unit's sums in a fresh buffer of hundreds of kilobytes; glibc's
+/// malloc hands such buffers back to the kernel and faults them in again on every request
+/// (about a tenth of the coordinator's time in `tessera-bench roundtrips`), mimalloc reuses them.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 fn main() -> anyhow::Result<()> {
     match Cli::parse().cmd {

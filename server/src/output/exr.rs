@@ -25,7 +25,7 @@ const MAX_PIXELS: usize = 1 << 28;
 /// Below this many pixels, (de)compress on the calling thread: the `exr`
 /// crate builds a fresh thread pool per call, which costs more than it saves
 /// on small images.
-const PARALLEL_MIN_PIXELS: usize = 1 << 18;
+const PARALLEL_MIN_PIXELS: usize = 1 << 15;
 
 const ENCODING: Encoding = Encoding {
     compression: Compression::ZIP16,

@@ -6,7 +6,10 @@ use axum::extract::{Path, State};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use futures_util::Stream;
 use std::convert::Infallible;
-use std::time::Duration;
+use std::time::{Duration, Instant};
+
+/// Least time between two progress events of a running job.
+const COALESCE: Duration = Duration::from_millis(100);
 
 /// Progress events (`event: progress`, data: the job JSON), ending with `event: end`.
 #[utoipa::path(get, path = "/v1/jobs/{id}/events", tag = "jobs", params(("id" = String, Path)),
@@ -17,30 +20,38 @@ pub async fn events(State(st): State<AppState>, Path(id): Path<String>) -> Resul
     let stream = async_stream(move |tx| async move {
         let mut last = first;
         let _ = tx.send(event(&last)).await;
+        let mut sent_at = Instant::now();
         while !last.state.is_final() {
             // Wake on a change to this job, or every second to refresh elapsed time and ETA.
-            let _ = tokio::time::timeout(Duration::from_secs(1), async {
-                loop {
-                    match rx.recv().await {
-                        Ok(changed) if changed == id => break,
-                        Ok(_) => continue,
-                        Err(tokio::sync::broadcast::error::RecvError::Lagged(_)) => break,
-                        Err(_) => break,
-                    }
+            let _ = tokio::time::timeout(Duration::from_secs(1), changed(&mut rx, &id)).await;
+            // Coalesce bursts of merges into at most ~10 events a second; the end goes out at once.
+            let due = sent_at + COALESCE;
+            last = loop {
+                let Ok(now) = status_of(&st, &id) else { return };
+                if now.state.is_final() || Instant::now() >= due {
+                    break now;
                 }
-            })
-            .await;
-            // Coalesce bursts of merges into at most ~10 events a second.
-            tokio::time::sleep(Duration::from_millis(100)).await;
-            let Ok(now) = status_of(&st, &id) else { break };
-            last = now;
+                let _ = tokio::time::timeout_at(due.into(), changed(&mut rx, &id)).await;
+            };
             if tx.send(event(&last)).await.is_err() {
                 return;
             }
+            sent_at = Instant::now();
         }
         let _ = tx.send(Ok(Event::default().event("end").data(last.id.clone()))).await;
     });
     Ok(Sse::new(stream).keep_alive(KeepAlive::default()))
+}
+
+/// Returns when job `id` changes (or the channel lagged or closed, so a change may be missed).
+async fn changed(rx: &mut tokio::sync::broadcast::Receiver<String>, id: &str) {
+    loop {
+        match rx.recv().await {
+            Ok(changed) if changed == id => return,
+            Ok(_) => continue,
+            Err(_) => return,
+        }
+    }
 }
 
 fn event(job: &tessera_proto::Job) -> Result<Event, Infallible> {

@@ -24,6 +24,20 @@ pub async fn register(State(st): State<AppState>, Json(hello): Json<WorkerHello>
     Ok((StatusCode::CREATED, axum::Json(Registration { worker_id: id, heartbeat_ms })))
 }
 
+/// A worker leaving (on shutdown): its leases go back to the queue at once, its long polls end,
+/// and it leaves the list. 404 for a worker the coordinator does not know.
+#[utoipa::path(delete, path = "/v1/workers/{id}", tag = "workers", params(("id" = String, Path)),
+    responses((status = 204), (status = 404, body = Problem)))]
+pub async fn deregister(State(st): State<AppState>, Path(id): Path<String>) -> Result<StatusCode, AppError> {
+    if !st.scheduler.lock().expect("lock").deregister_worker(&id) {
+        return Err(AppError::not_found(format!("worker {id} is not registered")));
+    }
+    tracing::info!(worker = %id, "worker left");
+    // Its units are back in the queue, and its own long poll must see that it is gone.
+    st.work_available.notify_waiters();
+    Ok(StatusCode::NO_CONTENT)
+}
+
 /// Connected workers.
 #[utoipa::path(get, path = "/v1/workers", tag = "workers", responses((status = 200, body = Vec<WorkerInfo>)))]
 pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<WorkerInfo>> {

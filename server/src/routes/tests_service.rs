@@ -31,7 +31,7 @@ async fn openapi_documents_every_route_the_router_serves() {
     r.expect(StatusCode::OK);
     let doc = r.json();
     let paths = doc["paths"].as_object().expect("paths");
-    let served: [(&str, &[&str]); 18] = [
+    let served: [(&str, &[&str]); 19] = [
         ("/v1/jobs", &["get", "post"]),
         ("/v1/jobs/{id}", &["get", "delete"]),
         ("/v1/jobs/{id}/image.exr", &["get"]),
@@ -44,6 +44,7 @@ async fn openapi_documents_every_route_the_router_serves() {
         ("/v1/scenes/{id}", &["get"]),
         ("/v1/scenes/{id}/data", &["get"]),
         ("/v1/workers", &["get", "post"]),
+        ("/v1/workers/{id}", &["delete"]),
         ("/v1/leases", &["post"]),
         ("/v1/leases/{id}", &["delete"]),
         ("/v1/leases/{id}/heartbeat", &["post"]),

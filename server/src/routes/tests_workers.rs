@@ -219,3 +219,28 @@ async fn a_result_over_the_size_limit_is_a_413_problem() {
     let api = Api::new("w-result-413-problem");
     put_result(&api, "l1-1", vec![0u8; (1024 * 1024 * 64) + 4096 + 1]).await.problem(StatusCode::PAYLOAD_TOO_LARGE);
 }
+
+#[tokio::test]
+async fn a_worker_leaving_ends_its_long_poll_and_hands_back_its_units() {
+    let api = Api::new("w-deregister");
+    let (a, b) = (register(&api).await, register(&api).await);
+    let started = std::time::Instant::now();
+    let poll_body = json!({"worker_id": a});
+    let (poll, left) = tokio::join!(api.post_json("/v1/leases?wait_ms=5000", &poll_body), async {
+        tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+        api.delete(&format!("/v1/workers/{a}")).await
+    });
+    left.expect(StatusCode::NO_CONTENT);
+    poll.problem(StatusCode::NOT_FOUND);
+    assert!(started.elapsed() < std::time::Duration::from_secs(2), "the long poll ended when its worker left: {:?}", started.elapsed());
+    api.delete(&format!("/v1/workers/{a}")).await.problem(StatusCode::NOT_FOUND);
+
+    api.submit(&tiled_job()).await;
+    let held = lease(&api, &b).await;
+    api.delete(&format!("/v1/workers/{b}")).await.expect(StatusCode::NO_CONTENT);
+    let c = register(&api).await;
+    let again = lease(&api, &c).await;
+    assert_eq!((again.tile, again.samples), (held.tile, held.samples), "b's unit is issued again at once");
+    let ids: Vec<Value> = api.get("/v1/workers").await.json().as_array().unwrap().iter().map(|w| w["id"].clone()).collect();
+    assert_eq!(ids, [json!(c)], "only c is listed");
+}

@@ -132,6 +132,27 @@ impl Scheduler {
         id
     }
 
+    /// A worker leaving: its leases go back to their queues at once (no waiting for them to
+    /// expire, no failure counted) and it is forgotten. False for an unknown worker.
+    pub fn deregister_worker(&mut self, id: &str) -> bool {
+        if self.workers.remove(id).is_none() {
+            return false;
+        }
+        let mut held = Vec::new();
+        self.leases.retain(|_, l| {
+            let mine = l.worker == id;
+            if mine {
+                held.push(l.clone());
+            }
+            !mine
+        });
+        held.sort_by_key(|l| l.number);
+        for l in &held {
+            self.requeue(l);
+        }
+        true
+    }
+
     pub fn workers(&self) -> impl Iterator<Item = (&String, &WorkerRec)> {
         self.workers.iter()
     }

@@ -251,3 +251,21 @@ fn leases_expiring_in_one_silence_count_one_failure() {
     assert_eq!(failures(&s), (2, 2));
     assert!(s.lease(&w, now + TIMEOUT).unwrap().is_none(), "blocked after two");
 }
+
+#[test]
+fn a_worker_leaving_hands_its_leases_straight_back() {
+    let mut s = Scheduler::new(TIMEOUT);
+    let (a, b) = (s.register_worker("a", 2, 0), s.register_worker("b", 2, 0));
+    s.submit(config("j", 4, 0));
+    let held = [s.lease(&a, 0).unwrap().unwrap(), s.lease(&a, 0).unwrap().unwrap()];
+    assert!(s.deregister_worker(&a));
+    assert!(!s.deregister_worker(&a), "already gone");
+    assert!(s.lease(&a, 1).is_err(), "a is unknown now");
+    assert_eq!(s.heartbeat(&held[0].lease_id, 1), None, "its leases are gone");
+    assert!(matches!(s.complete(&held[1].lease_id, sums(&held[1], 1.0), 1), Err(ResultError::Stale(_))));
+    // Before any deadline, b gets a's two units back first, in a's order, then the rest.
+    let again = drain(&mut s, &b, 1);
+    assert_eq!(again.len(), 6, "every unit once");
+    assert_eq!(again[..2].iter().map(|g| g.tile).collect::<Vec<_>>(), held.iter().map(|g| g.tile).collect::<Vec<_>>());
+    assert_eq!(s.workers().map(|(id, w)| (id.clone(), w.failures)).collect::<Vec<_>>(), [(b, 0)], "a is forgotten, b blamed for nothing");
+}

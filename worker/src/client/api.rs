@@ -57,6 +57,8 @@ const HEARTBEAT_TIMEOUT: Duration = Duration::from_secs(10);
 const UPLOAD_TIMEOUT: Duration = Duration::from_secs(120);
 const SCENE_TIMEOUT: Duration = Duration::from_secs(600);
 const RELEASE_TIMEOUT: Duration = Duration::from_secs(5);
+/// Short: it is the last thing a stopping worker does, and the leases expire without it.
+const DEREGISTER_TIMEOUT: Duration = Duration::from_secs(2);
 /// A lease request long-polls for 1 s at most, so an answer later than this means a dead
 /// connection (e.g. a worker whose host was cut off and came back with a new address): give up
 /// early and the retry opens a fresh one, rather than idling for the JSON timeout.
@@ -163,6 +165,18 @@ impl Api {
             s if s.is_success() => Ok(()),
             StatusCode::CONFLICT | StatusCode::NOT_FOUND | StatusCode::GONE => Ok(()),
             _ => Err(unexpected(resp, "lease release").await),
+        }
+    }
+
+    /// Tells the coordinator this worker is leaving; its leases go back to the queue. A
+    /// coordinator that no longer knows the worker (restarted) counts as done.
+    pub(crate) async fn deregister(&self, worker_id: &str) -> Result<(), CallError> {
+        let path = format!("/v1/workers/{}", segment(worker_id));
+        let resp = send(self.request(Method::DELETE, &path, DEREGISTER_TIMEOUT), "deregistration").await?;
+        match resp.status() {
+            s if s.is_success() => Ok(()),
+            StatusCode::NOT_FOUND | StatusCode::GONE => Ok(()),
+            _ => Err(unexpected(resp, "deregistration").await),
         }
     }
 

@@ -95,10 +95,10 @@ pub struct WorkerReport {
 pub const SHUTDOWN_GRACE: Duration = Duration::from_secs(2);
 /// How long a result upload still in flight at shutdown may take.
 const SHUTDOWN_UPLOAD_WAIT: Duration = Duration::from_secs(5);
-/// A lease request in flight at shutdown gets this long to answer; a long poll (up to 1 s) is
-/// simply dropped, which cancels it on the coordinator before it grants anything (a lease granted meanwhile is
-/// given back rather than left to expire).
-const LEASE_DRAIN: Duration = Duration::from_millis(20);
+/// How long a lease request in flight at shutdown may still answer: not at all. It is dropped,
+/// and a lease the coordinator granted to it meanwhile goes back to the queue when the worker
+/// deregisters on its way out (`DELETE /v1/workers/{id}`), instead of waiting to expire.
+const LEASE_DRAIN: Duration = Duration::ZERO;
 /// Polling while the coordinator has no work (204), and after a unit that could not be worked.
 const IDLE: Backoff = Backoff::new(Duration::from_millis(50), Duration::from_secs(1));
 const RELEASE_ATTEMPTS: u32 = 3;
@@ -146,6 +146,8 @@ struct Carry {
     uploading: Option<JoinHandle<Uploaded>>,
     /// The next lease, fetched while the unit in hand renders (at most one).
     prefetch: Option<Prefetch>,
+    /// This worker's id with the coordinator, once registered: deregistered at the end.
+    worker_id: Option<String>,
 }
 
 /// How an upload ended.
@@ -186,12 +188,19 @@ impl Worker {
         info!(coordinator = self.api.base(), threads = self.pool.current_num_threads(), name = %self.name, "worker starting");
         let mut carry = Carry::default();
         let result = self.serve(&stop, &mut carry).await;
-        let Carry { mut report, uploading, prefetch } = carry;
+        let Carry { mut report, uploading, prefetch, worker_id } = carry;
         if let Some(p) = prefetch {
             self.give_back(p, &mut report).await;
         }
         if let Some(upload) = uploading {
             finish_upload(upload, &stop, &mut report).await;
+        }
+        if let Some(id) = worker_id {
+            // Last, so that no upload still in flight loses its lease.
+            match self.api.deregister(&id).await {
+                Ok(()) => debug!(worker_id = %id, "deregistered"),
+                Err(e) => warn!(worker_id = %id, "cannot deregister ({e}); the coordinator will see this worker's leases expire"),
+            }
         }
         report.busy = Duration::from_nanos(self.busy_ns.load(Ordering::Relaxed));
         info!(units_done = report.units_done, units_stale = report.units_stale, units_canceled = report.units_canceled, busy_s = report.busy.as_secs_f64(), "worker stopped");
@@ -201,6 +210,7 @@ impl Worker {
     /// The loop proper; returns on shutdown or a fatal refusal.
     async fn serve(&self, stop: &Stop, carry: &mut Carry) -> anyhow::Result<()> {
         let Some(mut reg) = self.register(stop).await? else { return Ok(()) };
+        carry.worker_id = Some(reg.worker_id.clone());
         let mut idle = IDLE;
         loop {
             let worker_id = reg.worker_id.as_str();
@@ -216,7 +226,10 @@ impl Worker {
                 Retried::Done(LeaseAnswer::UnknownWorker) => {
                     info!(worker_id, "the coordinator does not know this worker (it restarted?): registering again");
                     match self.register(stop).await? {
-                        Some(r) => reg = r,
+                        Some(r) => {
+                            carry.worker_id = Some(r.worker_id.clone());
+                            reg = r;
+                        }
                         None => return Ok(()),
                     }
                     continue;

@@ -53,6 +53,8 @@ struct Log {
     /// (lease id, content type, body, when it arrived) of every result upload.
     results: Vec<(String, String, Vec<u8>, Instant)>,
     released: Vec<String>,
+    /// (when, worker id) of every deregistration.
+    deregistered: Vec<(Instant, String)>,
     scene_downloads: u32,
     unauthorized: u32,
     /// (lease id, x-tessera-prepare, x-tessera-prepare-ms) of every result upload.
@@ -157,6 +159,12 @@ async fn release(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Respo
     StatusCode::NO_CONTENT.into_response()
 }
 
+async fn deregister(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
+    let mut log = mock.log();
+    log.deregistered.push((Instant::now(), id.clone()));
+    if log.known.remove(&id) { StatusCode::NO_CONTENT.into_response() } else { problem(StatusCode::NOT_FOUND, "unknown worker") }
+}
+
 async fn scene(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
     let bytes = match id.as_str() {
         SCENE_ID => mock.scene.clone(),
@@ -174,6 +182,7 @@ async fn serve_on(mock: Arc<Mock>, listener: tokio::net::TcpListener) {
         .route("/v1/leases/{id}/heartbeat", post(heartbeat))
         .route("/v1/leases/{id}/result", put(result))
         .route("/v1/leases/{id}", delete(release))
+        .route("/v1/workers/{id}", delete(deregister))
         .route("/v1/scenes/{id}/data", get(scene))
         .layer(middleware::from_fn_with_state(mock.clone(), auth))
         .with_state(mock);
@@ -410,6 +419,7 @@ async fn shutdown_while_idle_returns_promptly() {
     let (report, took) = worker.stop(Duration::from_secs(5)).await;
     assert_eq!(report, WorkerReport::default());
     assert!(took < Duration::from_secs(1), "idle shutdown took {took:?}");
+    assert_eq!(mock.log().deregistered.iter().map(|d| d.1.as_str()).collect::<Vec<_>>(), ["w1"], "it said it was leaving");
 
     let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
     let worker = spawn_worker(&format!("http://127.0.0.1:{port}"));
@@ -453,6 +463,8 @@ async fn shutdown_lets_the_unit_in_hand_finish_within_the_grace() {
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["warm", "in-hand"]);
     assert!(log.released.is_empty());
+    let last_upload = log.results.iter().map(|r| r.3).max().unwrap();
+    assert!(matches!(&log.deregistered[..], [(at, id)] if id == "w1" && *at >= last_upload), "deregistered once, after its last upload");
     // (A poll issued just as the test asked for shutdown may land a moment later.)
     assert!(log.lease_requests.iter().all(|r| r.0 < stopped_at + Duration::from_millis(50)), "no new lease request after shutdown");
 }
