@@ -52,19 +52,23 @@ struct FarmRun {
     total: f64,
     /// The worker's pool rendering (its report).
     busy: f64,
+    /// CPU seconds of the whole process (every thread: coordinator, worker, client).
+    cpu: f64,
 }
 
 pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
     let scene = bundled::load(&b.scene)?;
     let settings = settings(b.size)?;
     let rt = tokio::runtime::Runtime::new()?;
-    let (mut alone, mut encodes, mut farm) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut alone, mut encodes, mut alone_cpu, mut farm) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for r in 0..b.repeats.max(1) {
         let farm_first = r % 2 == 1;
         if farm_first {
             farm.push(farm_run(&rt, b, r)?);
         }
+        let cpu = cpu_seconds();
         let (total, encode) = alone_run(&scene, &settings, b)?;
+        alone_cpu.push(cpu_seconds() - cpu);
         alone.push(total);
         encodes.push(encode);
         if !farm_first {
@@ -91,6 +95,15 @@ pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
     println!(
         "  against the tracer alone stopping before its EXR encode (a median {:.3} s): median per-pair overhead {:+.2} %",
         median(&encodes),
+        (median(&ratios) - 1.0) * 100.0
+    );
+    // CPU time does not count the time a VM's other tenants take, which blurs wall times.
+    let farm_cpu: Vec<f64> = farm.iter().map(|f| f.cpu).collect();
+    let ratios: Vec<f64> = alone_cpu.iter().zip(&farm_cpu).map(|(a, f)| f / a).collect();
+    println!(
+        "  CPU time of all threads (user + system), medians: alone {:.3} s, farm {:.3} s; median per-pair extra CPU {:+.2} %",
+        median(&alone_cpu),
+        median(&farm_cpu),
         (median(&ratios) - 1.0) * 100.0
     );
     Ok(())
@@ -188,7 +201,7 @@ fn farm_run(rt: &tokio::runtime::Runtime, b: &OverheadBench, r: u32) -> anyhow::
         batch_spp: Some(b.batch_spp),
         ..JobRequest::default()
     };
-    let t = Instant::now();
+    let (t, cpu) = (Instant::now(), cpu_seconds());
     let (phases, reports) = rt.block_on(with_farm_reports(&data, LocalFarm::default(), |c| async move {
         let up = t.elapsed().as_secs_f64();
         let j = c.submit(&req).await?;
@@ -198,8 +211,20 @@ fn farm_run(rt: &tokio::runtime::Runtime, b: &OverheadBench, r: u32) -> anyhow::
         anyhow::Ok((up, done.elapsed_s, seen, t.elapsed().as_secs_f64()))
     }))?;
     let total = t.elapsed().as_secs_f64();
+    let cpu = cpu_seconds() - cpu;
     let _ = std::fs::remove_dir_all(&data);
     let busy = reports.first().copied().flatten().map_or(f64::NAN, |w| w.busy.as_secs_f64());
     let (up, job, seen, exr) = phases;
-    Ok(FarmRun { up, job, seen, exr, total, busy })
+    Ok(FarmRun { up, job, seen, exr, total, busy, cpu })
+}
+
+/// User + system CPU seconds of this process so far, every thread included.
+fn cpu_seconds() -> f64 {
+    // SAFETY: getrusage only writes the struct it is given.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } != 0 {
+        return f64::NAN;
+    }
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    secs(usage.ru_utime) + secs(usage.ru_stime)
 }
