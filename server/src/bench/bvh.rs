@@ -111,18 +111,21 @@ fn render_one_core(scene: &Scene, size: u32, spp: u32) -> anyhow::Result<(u64, f
     Ok((sums.rays, t.elapsed().as_secs_f64()))
 }
 
-/// The field as a scene's parts: grey Lambert spheres, a square light (radiance 3) at y = 6
-/// facing down and overhanging the field by a tenth on every side, and a camera at a corner of
-/// the field looking across it.
+/// The field as a scene's parts: grey Lambert spheres on a grey ground, a square light
+/// (radiance 3) at y = 6 facing down, both overhanging the field by a tenth on every side, and a
+/// camera at a corner of the field looking across it.
 fn field_parts(tris: Vec<[Vec3; 3]>) -> (Mesh, Vec<Material>, Camera) {
     let size = bounds(&tris).1.x.max(1.0);
     let mut mesh = Mesh::default();
     tris.into_iter().for_each(|t| mesh.push_flat(t, 0));
-    let (lo, hi, y) = (-0.1 * size, 1.1 * size, 6.0);
-    let corner = |x: f32, z: f32| Vec3::new(x, y, z);
-    // (+x) × (+z) = −y: both triangles face the field.
-    mesh.push_flat([corner(lo, lo), corner(hi, lo), corner(lo, hi)], 1);
-    mesh.push_flat([corner(hi, lo), corner(hi, hi), corner(lo, hi)], 1);
+    let (lo, hi) = (-0.1 * size, 1.1 * size);
+    let at = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    // (+x) × (+z) = −y: the light's two triangles face the field, at y = 6 …
+    mesh.push_flat([at(lo, 6.0, lo), at(hi, 6.0, lo), at(lo, 6.0, hi)], 1);
+    mesh.push_flat([at(hi, 6.0, lo), at(hi, 6.0, hi), at(lo, 6.0, hi)], 1);
+    // … and the ground's face up, at y = 0, so that paths bounce between it and the spheres.
+    mesh.push_flat([at(lo, 0.0, lo), at(lo, 0.0, hi), at(hi, 0.0, lo)], 0);
+    mesh.push_flat([at(hi, 0.0, lo), at(lo, 0.0, hi), at(hi, 0.0, hi)], 0);
     let mut light = Material::lambert("light", Vec3::ZERO);
     light.emission = Vec3::splat(3.0);
     let camera = look_at(Vec3::new(-0.1 * size, 3.0, -0.1 * size), Vec3::new(0.5 * size, 0.5, 0.5 * size), 0.8);
@@ -165,8 +168,9 @@ fn sphere_field(triangles: usize) -> Vec<[Vec3; 3]> {
         for j in 0..SEGMENTS / 2 {
             for i in 0..SEGMENTS {
                 let (a, b, c, d) = (point(i, j), point(i + 1, j), point(i, j + 1), point(i + 1, j + 1));
-                tris.push([a, c, b]);
-                tris.push([b, c, d]);
+                // Wound to face outwards: surfaces are black from behind (Conventions, ARCHITECTURE.md).
+                tris.push([a, b, c]);
+                tris.push([b, d, c]);
             }
         }
     }
