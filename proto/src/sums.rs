@@ -80,11 +80,14 @@ impl PartialSums {
         }
         out.extend_from_slice(&self.dropped.to_le_bytes());
         out.extend_from_slice(&self.max_weight.to_le_bytes());
-        for p in &self.pixels {
-            for v in p.sum.iter().chain(&p.sum_sq).chain([&p.sum_lum_sq]) {
-                out.extend_from_slice(&v.to_le_bytes());
+        // Fixed-size pixel records written in place: no capacity check per value.
+        out.resize(HEADER_LEN + PIXEL_LEN * self.pixels.len(), 0);
+        for (b, p) in out[HEADER_LEN..].chunks_exact_mut(PIXEL_LEN).zip(&self.pixels) {
+            let values = [p.sum[0], p.sum[1], p.sum[2], p.sum_sq[0], p.sum_sq[1], p.sum_sq[2], p.sum_lum_sq];
+            for (k, v) in values.iter().enumerate() {
+                b[8 * k..8 * k + 8].copy_from_slice(&v.to_le_bytes());
             }
-            out.extend_from_slice(&p.count.to_le_bytes());
+            b[56..64].copy_from_slice(&p.count.to_le_bytes());
         }
         out
     }

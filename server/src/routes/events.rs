@@ -25,14 +25,13 @@ pub async fn events(State(st): State<AppState>, Path(id): Path<String>) -> Resul
             // Wake on a change to this job, or every second to refresh elapsed time and ETA.
             let _ = tokio::time::timeout(Duration::from_secs(1), changed(&mut rx, &id)).await;
             // Coalesce bursts of merges into at most ~10 events a second; the end goes out at once.
+            // Between events only the job's state is looked at: a status is built to be sent.
             let due = sent_at + COALESCE;
-            last = loop {
-                let Ok(now) = status_of(&st, &id) else { return };
-                if now.state.is_final() || Instant::now() >= due {
-                    break now;
-                }
+            while Instant::now() < due && !ended(&st, &id) {
                 let _ = tokio::time::timeout_at(due.into(), changed(&mut rx, &id)).await;
-            };
+            }
+            let Ok(now) = status_of(&st, &id) else { return };
+            last = now;
             if tx.send(event(&last)).await.is_err() {
                 return;
             }
@@ -41,6 +40,11 @@ pub async fn events(State(st): State<AppState>, Path(id): Path<String>) -> Resul
         let _ = tx.send(Ok(Event::default().event("end").data(last.id.clone()))).await;
     });
     Ok(Sse::new(stream).keep_alive(KeepAlive::default()))
+}
+
+/// Whether job `id` has ended (or is gone).
+fn ended(st: &AppState, id: &str) -> bool {
+    st.scheduler.lock().expect("lock").job(id).is_none_or(|j| j.state.is_final())
 }
 
 /// Returns when job `id` changes (or the channel lagged or closed, so a change may be missed).
