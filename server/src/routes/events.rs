@@ -6,10 +6,11 @@ use axum::extract::{Path, State};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use futures_util::Stream;
 use std::convert::Infallible;
-use std::time::{Duration, Instant};
+use std::time::Duration;
+use tokio::time::Instant;
 
 /// Least time between two progress events of a running job.
-const COALESCE: Duration = Duration::from_millis(100);
+pub(crate) const COALESCE: Duration = Duration::from_millis(100);
 
 /// Progress events (`event: progress`, data: the job JSON), ending with `event: end`.
 #[utoipa::path(get, path = "/v1/jobs/{id}/events", tag = "jobs", params(("id" = String, Path)),
@@ -28,7 +29,7 @@ pub async fn events(State(st): State<AppState>, Path(id): Path<String>) -> Resul
             // Between events only the job's state is looked at: a status is built to be sent.
             let due = sent_at + COALESCE;
             while Instant::now() < due && !ended(&st, &id) {
-                let _ = tokio::time::timeout_at(due.into(), changed(&mut rx, &id)).await;
+                let _ = tokio::time::timeout_at(due, changed(&mut rx, &id)).await;
             }
             let Ok(now) = status_of(&st, &id) else { return };
             last = now;

@@ -60,6 +60,14 @@ impl Api {
         Resp { status, headers, body }
     }
 
+    /// A GET whose body is left open, for streams (SSE).
+    pub async fn stream(&self, uri: &str) -> axum::body::BodyDataStream {
+        let req = Request::builder().uri(uri).body(Body::empty()).expect("request");
+        let res = self.router.clone().oneshot(req).await.expect("the router is infallible");
+        assert_eq!(res.status(), StatusCode::OK, "GET {uri}");
+        res.into_body().into_data_stream()
+    }
+
     pub async fn request(&self, method: Method, uri: &str, content_type: Option<&str>, body: impl Into<Body>) -> Resp {
         let mut req = Request::builder().method(method).uri(uri);
         if let Some(ct) = content_type {

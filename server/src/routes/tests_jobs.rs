@@ -1,5 +1,5 @@
 //! `/v1/jobs`: submit (every validation rule), read, list with pagination, cancel, events.
-use super::tests::{Api, cornell_bytes, job_body, sha256_hex};
+use super::tests::{Api, cornell_bytes, job_body, lease, put_result, register, sha256_hex, sums_for, tiled_job};
 use axum::http::{Method, StatusCode, header};
 use serde_json::{Value, json};
 
@@ -211,4 +211,35 @@ async fn the_events_of_an_ended_job_are_one_progress_event_then_end() {
     let end = text.find("event: end").expect(text);
     assert!(progress < end, "{text}");
     assert!(text.contains("\"state\":\"canceled\"") && text.contains(&format!("data: {id}")), "{text}");
+}
+
+/// Progress events are coalesced (at most one per `COALESCE`), but a job's end is streamed at
+/// once. On tokio's paused clock: the `done` event carries no wait after the last merge.
+#[tokio::test(start_paused = true)]
+async fn the_end_of_a_job_is_streamed_without_waiting() {
+    use futures_util::StreamExt;
+    let api = Api::new("job-events-end");
+    let w = register(&api).await;
+    let id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
+    let mut events = api.stream(&format!("/v1/jobs/{id}/events")).await;
+    let first = String::from_utf8(events.next().await.expect("an event").expect("bytes").to_vec()).unwrap();
+    assert!(first.contains("event: progress") && first.contains("\"state\":\"queued\""), "{first}");
+    let reader = tokio::spawn(async move {
+        let mut text = String::new();
+        while let Some(chunk) = events.next().await {
+            text.push_str(&String::from_utf8_lossy(&chunk.expect("bytes")));
+            if text.contains("\"state\":\"done\"") {
+                return (tokio::time::Instant::now(), text);
+            }
+        }
+        panic!("the stream ended without the job's end: {text}");
+    });
+    let units: Vec<_> = futures_util::future::join_all((0..12).map(|_| lease(&api, &w))).await;
+    let mut last_merge = tokio::time::Instant::now();
+    for l in &units {
+        last_merge = tokio::time::Instant::now();
+        put_result(&api, &l.lease_id, sums_for(l, 0.5).encode()).await.expect(StatusCode::NO_CONTENT);
+    }
+    let (seen, text) = reader.await.unwrap();
+    assert!(seen - last_merge < crate::routes::events::COALESCE / 10, "the end came {:?} after the last merge: {text}", seen - last_merge);
 }
