@@ -78,7 +78,7 @@ where
             }))
         })
         .collect();
-    // Loopback polls are cheap: poll often so the job's end is noticed within milliseconds.
+    // Waits follow the job's event stream; should it break, loopback polls are cheap: poll often.
     let outcome = f(Coordinator::new(&url, None).polling_every(std::time::Duration::from_millis(50))).await;
     let _ = stop_workers.send(());
     let mut reports = Vec::with_capacity(workers.len());
