@@ -150,7 +150,6 @@ pub async fn scene_ref(c: &Coordinator, scene: &str) -> anyhow::Result<String> {
     Ok(c.upload_scene(bytes, binary).await?.id)
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::progress_event;

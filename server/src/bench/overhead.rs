@@ -177,10 +177,7 @@ fn alone_run(scene: &Scene, settings: &RenderSettings, b: &OverheadBench) -> any
             for x0 in (0..size).step_by(TILE as usize) {
                 let tile = Tile { x0, y0, w: TILE.min(size - x0), h: TILE.min(size - y0) };
                 let sums = render_tile(scene, settings, tile, k * batch..((k + 1) * batch).min(spp)).map_err(anyhow::Error::msg)?;
-                for (i, p) in sums.pixels.iter().enumerate() {
-                    let (x, y) = (x0 + i as u32 % tile.w, y0 + i as u32 / tile.w);
-                    frame[(y * size + x) as usize].merge(p);
-                }
+                sums.add_into_frame(&mut frame, size);
             }
         }
     }

@@ -138,17 +138,9 @@ impl Scheduler {
         if self.workers.remove(id).is_none() {
             return false;
         }
-        let mut held = Vec::new();
-        self.leases.retain(|_, l| {
-            let mine = l.worker == id;
-            if mine {
-                held.push(l.clone());
-            }
-            !mine
-        });
-        held.sort_by_key(|l| l.number);
-        for l in &held {
-            self.requeue(l);
+        let held: Vec<String> = self.leases.iter().filter(|(_, l)| l.worker == id).map(|(k, _)| k.clone()).collect();
+        for lease in &held {
+            self.release(lease);
         }
         true
     }
