@@ -74,9 +74,8 @@ impl Accel {
         let mut build_time = Duration::default();
         let (tree, bvh2) = match kind {
             BvhKind::Wide => {
-                // obvhs traverses a wide tree with a fixed 32-entry stack and asserts (debug
-                // builds only) that the tree is shallower; release builds would silently drop
-                // nodes and miss hits. Pathological geometry (found by fuzzing) builds deeper
+                // A wide tree is walked with a fixed 32-entry stack (ours in accel_wide.rs, like
+                // obvhs's); a deeper tree would overflow it and silently drop nodes and hits. Pathological geometry (found by fuzzing) builds deeper
                 // trees: those get the binary tree, whose traversal stack grows.
                 let build = || {
                     let bvh2 = wide_source(&obvhs_tris, params);
@@ -136,18 +135,17 @@ impl Accel {
                 _ => f32::INFINITY,
             }
         };
-        let mut hit = RayHit::none();
-        let found = match &self.tree {
-            Tree::Wide(b) => b.ray_traverse(obvhs_ray, &mut hit, &mut closest),
-            Tree::Binary(b) => b.ray_traverse(obvhs_ray, &mut hit, &mut closest),
-            Tree::Empty => false,
-        };
-        if !found {
-            return None;
-        }
+        let t = match &self.tree {
+            Tree::Wide(b) => wide::closest(b, obvhs_ray, &mut closest),
+            Tree::Binary(b) => {
+                let mut hit = RayHit::none();
+                b.ray_traverse(obvhs_ray, &mut hit, &mut closest).then_some(hit.t)
+            }
+            Tree::Empty => None,
+        }?;
         // The last accepted candidate is the closest (t only decreases; ties go to the smaller index).
         let (slot, b1, b2) = best?;
-        Some(Hit { t: hit.t / self.scale, prim: self.prim_ids[slot as usize], b1, b2 })
+        Some(Hit { t: t / self.scale, prim: self.prim_ids[slot as usize], b1, b2 })
     }
 
     /// Whether anything blocks the ray on 0 < t < t_max.
@@ -167,7 +165,7 @@ impl Accel {
             }
         };
         match &self.tree {
-            Tree::Wide(b) => !b.ray_traverse_miss(obvhs_ray, any),
+            Tree::Wide(b) => wide::any(b, obvhs_ray, any),
             Tree::Binary(b) => !b.ray_traverse_miss(obvhs_ray, any),
             Tree::Empty => false,
         }
@@ -222,8 +220,8 @@ fn to_wide(bvh2: &Bvh2, params: BvhBuildParams) -> CwBvh {
     bvh2_to_cwbvh(bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false)
 }
 
-/// obvhs's wide-tree traversal stack (`TRAVERSAL_STACK_SIZE`, private there).
-const WIDE_STACK: u32 = 32;
+/// The wide-tree traversal stack's depth.
+const WIDE_STACK: u32 = wide::STACK as u32;
 
 /// Depth of a wide BVH, walked as obvhs's own validation does.
 fn wide_depth(bvh: &CwBvh) -> u32 {
@@ -425,6 +423,8 @@ pub(crate) fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(f32, u32)> {
 
 #[path = "accel_refit.rs"]
 mod refit;
+#[path = "accel_wide.rs"]
+mod wide;
 
 #[cfg(test)]
 #[path = "accel_tests.rs"]
