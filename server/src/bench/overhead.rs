@@ -37,6 +37,7 @@ pub struct OverheadBench {
 
 const TILE: u32 = 64;
 
+
 /// One farm run's phases, in seconds from the start of the run.
 #[derive(Clone, Copy, Debug)]
 struct FarmRun {
@@ -123,12 +124,34 @@ fn report(b: &OverheadBench, alone: &[f64], farm: &[FarmRun]) {
     println!("  coordinator + 1 worker {fast_f:8.3} s {med_f:8.3} s  {:>10.0} samples/s (fastest; incl. scene load, EXR encode and download)", samples / fast_f);
     println!("  overhead               {:+7.2} %  {:+7.2} %", pct(fast_f / fast_a), pct(med_f / med_a));
     println!("  overhead, median of the per-pair ratios {:+6.2} %  (pairs: {})", pct(median(&ratios)), list(&ratios, |r| format!("{:+.1}", pct(r))));
+    match median_interval(&ratios) {
+        Some((lo, hi, level)) => println!("  the median's {:.0} % confidence interval (order statistics, no assumption on the noise): {:+.2} % … {:+.2} %", level * 100.0, pct(lo), pct(hi)),
+        None => println!("  (6 or more pairs give a confidence interval for the median)"),
+    }
     // Within-run accounting, medians over the farm runs.
     let med = |f: fn(&FarmRun) -> f64| median(&farm.iter().map(f).collect::<Vec<_>>());
     let idle = med(|f| f.job - f.busy);
     let fixed = med(|f| f.total - f.job);
     println!("  farm run breakdown (medians): worker idle in the job {:.3} s = {:.2} % of the job; fixed costs (start, EXR, stop) {fixed:.3} s = {:.2} % of the run; render busy {:.3} s vs alone {med_a:.3} s, its EXR included ({:+.2} %)",
         idle, med(|f| (f.job - f.busy) / f.job) * 100.0, med(|f| (f.total - f.job) / f.total) * 100.0, med(|f| f.busy), pct(med(|f| f.busy) / med_a));
+}
+
+/// A distribution-free interval for the median of `v`: the k-th smallest and k-th largest
+/// values, with the largest k whose coverage (from the binomial distribution, p = ½) is still
+/// ≥ 95 %. Returns (low, high, coverage); None when even the extremes cover less.
+fn median_interval(v: &[f64]) -> Option<(f64, f64, f64)> {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    // P(X < k) for X ~ Binomial(n, ½): the chance that fewer than k values fall below the median.
+    let below = |k: usize| (0..k).map(|i| binomial(n, i)).sum::<f64>() / 2f64.powi(n as i32);
+    let coverage = |k: usize| 1.0 - 2.0 * below(k);
+    let k = (1..=n / 2).take_while(|&k| coverage(k) >= 0.95).last()?;
+    Some((s[k - 1], s[n - k], coverage(k)))
+}
+
+fn binomial(n: usize, k: usize) -> f64 {
+    (0..k).fold(1.0, |c, i| c * (n - i) as f64 / (i + 1) as f64)
 }
 
 fn list(v: &[f64], f: impl Fn(f64) -> String) -> String {
@@ -224,4 +247,21 @@ fn cpu_seconds() -> f64 {
     }
     let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
     secs(usage.ru_utime) + secs(usage.ru_stime)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median_interval;
+
+    #[test]
+    fn the_median_interval_has_the_binomial_coverage() {
+        // n = 15: P(X ≤ 3) = 576/32768, so the 4th smallest and 4th largest cover 96.5 %.
+        let v: Vec<f64> = (1..=15).rev().map(f64::from).collect();
+        let (lo, hi, level) = median_interval(&v).unwrap();
+        assert_eq!((lo, hi), (4.0, 12.0));
+        assert!((level - (1.0 - 2.0 * 576.0 / 32768.0)).abs() < 1e-12);
+        // Five values: even the extremes cover only 1 − 2/32 = 93.75 %.
+        assert!(median_interval(&[1.0, 2.0, 3.0, 4.0, 5.0]).is_none());
+        assert_eq!(median_interval(&[6.0, 1.0, 5.0, 2.0, 4.0, 3.0]).map(|(l, h, _)| (l, h)), Some((1.0, 6.0)));
+    }
 }
