@@ -140,7 +140,7 @@ impl Api {
 
     /// Uploads a unit's sums, saying how its scene was prepared (`x-tessera-prepare`: cached,
     /// build or refit; `x-tessera-prepare-ms`: milliseconds, 0 when cached).
-    pub(crate) async fn upload(&self, lease_id: &str, body: Vec<u8>, prepared: Prepared) -> Result<UploadAnswer, CallError> {
+    pub(crate) async fn upload(&self, lease_id: &str, body: bytes::Bytes, prepared: Prepared) -> Result<UploadAnswer, CallError> {
         let path = format!("/v1/leases/{}/result", segment(lease_id));
         let rb = self
             .request(Method::PUT, &path, UPLOAD_TIMEOUT)

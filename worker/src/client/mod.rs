@@ -247,11 +247,15 @@ impl Worker {
             match self.run_unit(&lease, heartbeat_every(&reg), stop).await {
                 Unit::Rendered { sums, deadline, prepared } => {
                     idle.reset();
-                    let body = to_wire(&sums, lease.samples).encode();
                     if let Some(previous) = carry.uploading.take() {
                         finish_upload(previous, stop, &mut carry.report).await;
                     }
-                    carry.uploading = Some(tokio::spawn(upload(self.api.clone(), lease.lease_id.clone(), body, prepared, deadline)));
+                    // Encoded in the upload's task, so the pool starts the next unit meanwhile.
+                    let (api, lease_id, samples) = (self.api.clone(), lease.lease_id.clone(), lease.samples);
+                    carry.uploading = Some(tokio::spawn(async move {
+                        let body = bytes::Bytes::from(to_wire(&sums, samples).encode());
+                        upload(api, lease_id, body, prepared, deadline).await
+                    }));
                 }
                 Unit::Canceled => {
                     carry.report.units_canceled += 1;
@@ -476,7 +480,7 @@ fn check_unit(lease: &Lease) -> Result<crate::tracer::RenderSettings, String> {
 
 /// Uploads one unit's sums, retrying transient failures until the lease's deadline passes (by
 /// then the coordinator has re-issued the unit, and a late result would be stale anyway).
-async fn upload(api: Arc<Api>, lease_id: String, body: Vec<u8>, prepared: Prepared, deadline: Instant) -> Uploaded {
+async fn upload(api: Arc<Api>, lease_id: String, body: bytes::Bytes, prepared: Prepared, deadline: Instant) -> Uploaded {
     let id = lease_id.as_str();
     let mut backoff = RETRY;
     let mut failures = 0u32;
