@@ -55,6 +55,10 @@ struct FarmRun {
     busy: f64,
     /// CPU seconds of the whole process (every thread: coordinator, worker, client).
     cpu: f64,
+    /// CPU seconds of the worker's render threads, and of the process's other live threads,
+    /// from submit to the EXR downloaded (per-thread schedstat; NaN where unreadable).
+    render_cpu: f64,
+    other_cpu: f64,
 }
 
 pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
@@ -106,6 +110,19 @@ pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
         median(&alone_cpu),
         median(&farm_cpu),
         (median(&ratios) - 1.0) * 100.0
+    );
+    // Both shares come from one run, so the VM's drift between runs cancels out of their ratio.
+    let shares: Vec<f64> = farm.iter().map(|f| f.other_cpu / f.render_cpu).collect();
+    println!(
+        "  within each farm run (per-thread CPU, medians): render threads {:.3} s, every other thread (coordinator, HTTP, the worker's async side, the final EXR) {:.3} s = {:.2} % of the render's CPU",
+        median(&farm.iter().map(|f| f.render_cpu).collect::<Vec<_>>()),
+        median(&farm.iter().map(|f| f.other_cpu).collect::<Vec<_>>()),
+        median(&shares) * 100.0
+    );
+    let render_vs_alone: Vec<f64> = farm.iter().zip(&alone_cpu).map(|(f, a)| f.render_cpu / a).collect();
+    println!(
+        "  the farm's render threads against the whole tracer-alone run, CPU: median per-pair ratio {:+.2} % (the same work; what differs is the threads' surroundings)",
+        (median(&render_vs_alone) - 1.0) * 100.0
     );
     Ok(())
 }
@@ -224,18 +241,50 @@ fn farm_run(rt: &tokio::runtime::Runtime, b: &OverheadBench, r: u32) -> anyhow::
     let (t, cpu) = (Instant::now(), cpu_seconds());
     let (phases, reports) = rt.block_on(with_farm_reports(&data, LocalFarm::default(), |c| async move {
         let up = t.elapsed().as_secs_f64();
+        let before = threads_cpu();
         let j = c.submit(&req).await?;
         let done = c.wait(&j.id, |_| {}).await?;
         let seen = t.elapsed().as_secs_f64();
         c.bytes(&format!("/v1/jobs/{}/image.exr", j.id)).await?;
-        anyhow::Ok((up, done.elapsed_s, seen, t.elapsed().as_secs_f64()))
+        let threads = cpu_since(&before, &threads_cpu());
+        anyhow::Ok((up, done.elapsed_s, seen, t.elapsed().as_secs_f64(), threads))
     }))?;
     let total = t.elapsed().as_secs_f64();
     let cpu = cpu_seconds() - cpu;
     let _ = std::fs::remove_dir_all(&data);
     let busy = reports.first().copied().flatten().map_or(f64::NAN, |w| w.busy.as_secs_f64());
-    let (up, job, seen, exr) = phases;
-    Ok(FarmRun { up, job, seen, exr, total, busy, cpu })
+    let (up, job, seen, exr, (render_cpu, other_cpu)) = phases;
+    Ok(FarmRun { up, job, seen, exr, total, busy, cpu, render_cpu, other_cpu })
+}
+
+/// Each live thread of this process: (id, whether it is a worker's render thread, CPU seconds
+/// so far). From `/proc/self/task/*/schedstat` (nanoseconds; the tick-based counters of `stat`
+/// are too coarse for a few milliseconds of async work per unit). Empty where unreadable.
+fn threads_cpu() -> Vec<(u64, bool, f64)> {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else { return Vec::new() };
+    tasks
+        .flatten()
+        .filter_map(|t| {
+            let tid = t.file_name().to_str()?.parse().ok()?;
+            let name = std::fs::read_to_string(t.path().join("comm")).ok()?;
+            let ns: f64 = std::fs::read_to_string(t.path().join("schedstat")).ok()?.split_whitespace().next()?.parse().ok()?;
+            Some((tid, name.starts_with("tessera-render"), ns * 1e-9))
+        })
+        .collect()
+}
+
+/// CPU seconds (render threads, other threads) run between two [`threads_cpu`] readings by the
+/// threads alive at the second; threads that ended in between are not counted.
+fn cpu_since(before: &[(u64, bool, f64)], after: &[(u64, bool, f64)]) -> (f64, f64) {
+    if after.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    let (mut render, mut other) = (0.0, 0.0);
+    for &(tid, is_render, now) in after {
+        let then = before.iter().find(|b| b.0 == tid).map_or(0.0, |b| b.2);
+        *(if is_render { &mut render } else { &mut other }) += now - then;
+    }
+    (render, other)
 }
 
 /// User + system CPU seconds of this process so far, every thread included.
