@@ -9,6 +9,7 @@
 //! Within each farm run the worker's idle time is measured directly: the job's wall time on the
 //! coordinator's clock minus the time the worker's pool spent rendering (its report's `busy`),
 //! which no drift between runs can blur.
+use super::cpu::{cpu_seconds, cpu_since, threads_cpu};
 use crate::bundled;
 use crate::local::{LocalFarm, with_farm_reports};
 use std::time::Instant;
@@ -255,47 +256,6 @@ fn farm_run(rt: &tokio::runtime::Runtime, b: &OverheadBench, r: u32) -> anyhow::
     let busy = reports.first().copied().flatten().map_or(f64::NAN, |w| w.busy.as_secs_f64());
     let (up, job, seen, exr, (render_cpu, other_cpu)) = phases;
     Ok(FarmRun { up, job, seen, exr, total, busy, cpu, render_cpu, other_cpu })
-}
-
-/// Each live thread of this process: (id, whether it is a worker's render thread, CPU seconds
-/// so far). From `/proc/self/task/*/schedstat` (nanoseconds; the tick-based counters of `stat`
-/// are too coarse for a few milliseconds of async work per unit). Empty where unreadable.
-fn threads_cpu() -> Vec<(u64, bool, f64)> {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else { return Vec::new() };
-    tasks
-        .flatten()
-        .filter_map(|t| {
-            let tid = t.file_name().to_str()?.parse().ok()?;
-            let name = std::fs::read_to_string(t.path().join("comm")).ok()?;
-            let ns: f64 = std::fs::read_to_string(t.path().join("schedstat")).ok()?.split_whitespace().next()?.parse().ok()?;
-            Some((tid, name.starts_with("tessera-render"), ns * 1e-9))
-        })
-        .collect()
-}
-
-/// CPU seconds (render threads, other threads) run between two [`threads_cpu`] readings by the
-/// threads alive at the second; threads that ended in between are not counted.
-fn cpu_since(before: &[(u64, bool, f64)], after: &[(u64, bool, f64)]) -> (f64, f64) {
-    if after.is_empty() {
-        return (f64::NAN, f64::NAN);
-    }
-    let (mut render, mut other) = (0.0, 0.0);
-    for &(tid, is_render, now) in after {
-        let then = before.iter().find(|b| b.0 == tid).map_or(0.0, |b| b.2);
-        *(if is_render { &mut render } else { &mut other }) += now - then;
-    }
-    (render, other)
-}
-
-/// User + system CPU seconds of this process so far, every thread included.
-fn cpu_seconds() -> f64 {
-    // SAFETY: getrusage only writes the struct it is given.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } != 0 {
-        return f64::NAN;
-    }
-    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
-    secs(usage.ru_utime) + secs(usage.ru_stime)
 }
 
 #[cfg(test)]
