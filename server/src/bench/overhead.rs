@@ -5,10 +5,11 @@
 //!
 //! A 2-core VM shared with other work drifts by ±10 % from run to run, more than the overhead
 //! itself, so the two paths run in pairs (alone then farm, farm then alone, alternating), and the
-//! report gives the fastest of each, the median of each and the median of the per-pair ratios.
-//! Within each farm run the worker's idle time is measured directly: the job's wall time on the
-//! coordinator's clock minus the time the worker's pool spent rendering (its report's `busy`),
-//! which no drift between runs can blur.
+//! report gives the fastest of each, the median of each and the median of the per-pair ratios
+//! with a distribution-free confidence interval. Within each farm run two things are measured
+//! directly, which no drift between runs can blur: the worker's idle time (the job's wall time on
+//! the coordinator's clock minus the time the worker's pool spent rendering, its report's
+//! `busy`), and each thread's CPU time (the render threads against all the others).
 use super::cpu::{cpu_seconds, cpu_since, threads_cpu};
 use crate::bundled;
 use crate::local::{LocalFarm, with_farm_reports};

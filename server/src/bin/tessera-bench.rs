@@ -2,8 +2,9 @@
 //!
 //! `tessera-bench overhead`   — the same job rendered by the tracer alone and through a
 //!                              coordinator + 1 worker over loopback HTTP, in interleaved pairs;
-//!                              prints fastest and median of each, the median per-pair ratio and
-//!                              the worker's idle time (tessera_server::bench::overhead).
+//!                              prints fastest and median of each, the median per-pair ratio
+//!                              with its confidence interval, the worker's idle time and the
+//!                              threads' CPU split (tessera_server::bench::overhead).
 //! `tessera-bench roundtrips` — a coordinator on one core fed by fake workers that return
 //!                              results instantly; prints unit round trips per second and merge cost.
 //! `tessera-bench effects`    — the tracer alone on one scene with the gated kernel, the matte
@@ -35,7 +36,8 @@ struct Cli {
 #[derive(Subcommand)]
 enum Cmd {
     /// Tracer alone vs coordinator + 1 worker on the same job, in interleaved pairs: fastest and
-    /// median of each, median of the per-pair ratios, and the worker's idle time within the job.
+    /// median of each, median of the per-pair ratios with its confidence interval, the worker's
+    /// idle time within the job, and each farm run's CPU split between render and other threads.
     Overhead(tessera_server::bench::overhead::OverheadBench),
     /// Effect gating: gated vs matte-only vs all-effects kernels on the same frame.
     Effects {
