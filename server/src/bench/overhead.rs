@@ -39,7 +39,6 @@ pub struct OverheadBench {
 
 const TILE: u32 = 64;
 
-
 /// One farm run's phases, in seconds from the start of the run.
 #[derive(Clone, Copy, Debug)]
 struct FarmRun {

@@ -413,8 +413,9 @@ impl Worker {
 
 /// Runs `work` on the render pool and resolves with its result; a panic becomes an error. The
 /// job goes to the pool straight from the async side and its result comes back through a
-/// channel: the blocking thread that used to sit in between (`spawn_blocking` + `install`) cost
-/// two more thread wake-ups per unit, ≈ 0.6 ms of idle pool between units on a 2-core VM.
+/// channel, without the blocking thread that used to sit in between (`spawn_blocking` +
+/// `install`): one thread to wake less per unit. The pool still idles 0.5–0.7 ms between units
+/// on a 2-core VM (docs/performance.md), mostly the async side's turnaround.
 fn on_pool<T, F>(pool: &rayon::ThreadPool, work: F) -> impl Future<Output = Result<T, String>> + use<T, F>
 where
     T: Send + 'static,
