@@ -1,7 +1,9 @@
 //! `tessera-bench overhead`: the same job rendered by the tracer alone and through a coordinator
 //! and 1 worker over loopback HTTP (issue #3: target ≤ 3 %). Both deliver the same thing: the
-//! tracer alone merges its units into a frame and encodes the EXR too, so what differs is what
-//! distribution adds (HTTP, leases, merging on the coordinator, start and stop).
+//! tracer alone renders the same units (all queued on its pool at once, each worked by every
+//! thread as the worker does, so it has no gaps between units), merges them into a frame and
+//! encodes the EXR too, so what differs is what distribution adds (HTTP, leases, merging on the
+//! coordinator, start and stop).
 //!
 //! A 2-core VM shared with other work drifts by ±10 % from run to run, more than the overhead
 //! itself, so the two paths run in pairs (alone then farm, farm then alone, alternating), and the
@@ -13,12 +15,14 @@
 use super::cpu::{cpu_seconds, cpu_since, threads_cpu};
 use crate::bundled;
 use crate::local::{LocalFarm, with_farm_reports};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 use tessera_proto::JobRequest;
 use tessera_worker::client::render_settings;
 use crate::image;
 use crate::output::encode_exr;
-use tessera_worker::tracer::{PixelSums, RenderSettings, Scene, Tile, render_tile};
+use tessera_worker::tracer::{PixelSums, RenderSettings, RowQueue, Scene, Tile};
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct OverheadBench {
@@ -63,7 +67,7 @@ struct FarmRun {
 }
 
 pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
-    let scene = bundled::load(&b.scene)?;
+    let scene = Arc::new(bundled::load(&b.scene)?);
     let settings = settings(b.size)?;
     let rt = tokio::runtime::Runtime::new()?;
     let (mut alone, mut encodes, mut alone_cpu, mut farm) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
@@ -209,18 +213,35 @@ pub fn settings(size: u32) -> anyhow::Result<RenderSettings> {
 
 /// The tracer alone, unit by unit in the farm's order (batches outer, tiles inner), merged into
 /// a frame and encoded as the same EXR layers the farm delivers; seconds in all and of the encode.
-fn alone_run(scene: &Scene, settings: &RenderSettings, b: &OverheadBench) -> anyhow::Result<(f64, f64)> {
+fn alone_run(scene: &Arc<Scene>, settings: &RenderSettings, b: &OverheadBench) -> anyhow::Result<(f64, f64)> {
     let (size, spp, batch) = (b.size, b.spp, b.batch_spp);
     let t = Instant::now();
-    let mut frame = vec![PixelSums::default(); (size * size) as usize];
+    let mut units = Vec::new();
     for k in 0..spp.div_ceil(batch) {
         for y0 in (0..size).step_by(TILE as usize) {
             for x0 in (0..size).step_by(TILE as usize) {
                 let tile = Tile { x0, y0, w: TILE.min(size - x0), h: TILE.min(size - y0) };
-                let sums = render_tile(scene, settings, tile, k * batch..((k + 1) * batch).min(spp)).map_err(anyhow::Error::msg)?;
-                sums.add_into_frame(&mut frame, size);
+                let samples = k * batch..((k + 1) * batch).min(spp);
+                let never = Arc::new(AtomicBool::new(false));
+                units.push(RowQueue::new(scene.clone(), settings.clone(), tile, samples, never).map_err(anyhow::Error::msg)?);
             }
         }
+    }
+    // Every unit queued at once, each worked by every thread, as the worker's pool does: the
+    // tracer at its best on these units (no gap between them, no thread waiting for another).
+    let threads = rayon::current_num_threads();
+    rayon::scope_fifo(|s| {
+        for unit in &units {
+            for _ in 0..threads {
+                s.spawn_fifo(|_| {
+                    unit.work();
+                });
+            }
+        }
+    });
+    let mut frame = vec![PixelSums::default(); (size * size) as usize];
+    for unit in &units {
+        unit.take().expect("never canceled").add_into_frame(&mut frame, size);
     }
     let encode = Instant::now();
     encode_exr(&image::layers(size, size, &frame), &[])?;

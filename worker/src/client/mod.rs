@@ -3,8 +3,8 @@
 //! ```text
 //! register ──► lease ──► scene (cached) ──► render on the pool ──► upload (in the background)
 //!    ▲          │  ▲                                │                 at most one in flight
-//!    └── 404 ───┘  └──── prefetch: the next lease ◄─┘ asked for as the unit starts, held
-//!                        (heartbeated) until it ends; at most one
+//!    └── 404 ───┘  └──── prefetch: the next lease ◄─┘ asked for as the unit starts, its unit
+//!                        queued on the pool behind it, held (heartbeated) until it ends
 //!  204 (no work): poll again after a short backoff
 //!  heartbeats every heartbeat_ms/3 (≤ 1 s) for each lease held, rendering or prefetched;
 //!  409 drops it (a rendering unit is canceled)
@@ -13,7 +13,9 @@
 //! # Layout
 //! - this file: [`run`], the loop, one unit's life (`Worker::run_unit`) and result uploads.
 //! - `api`: one function per endpoint, answers sorted into what the loop acts on.
-//! - `prefetch`: the next lease, requested and kept alive in the background while a unit renders.
+//! - `prefetch`: the next lease, requested, its unit queued and kept alive in the background
+//!   while a unit renders.
+//! - `queue`: units on the render pool (a `RowQueue` worked by one job per pool thread).
 //! - `retry`: backoff with jitter, the shutdown signal, retry-until-done.
 //! - `cache`: parsed scene files by id and the last few frame scenes (with their BVHs).
 //! - `prepare`: the scene of a lease's frame: cached, refitted from the last frame, or built.
@@ -21,18 +23,20 @@
 //!
 //! # Rules
 //! - The tracer stays pure: rendering runs on a dedicated rayon pool of `threads` threads (each
-//!   unit handed to it directly, its result sent back through a channel: [`on_pool`]); tokio and
+//!   unit queued on it directly, its result sent back through a channel: `queue`); tokio and
 //!   reqwest live here only.
 //! - A coordinator that is down, restarting or failing (connection errors, 5xx) never stops the
 //!   worker: calls retry with exponential backoff (100 ms → 5 s) for as long as it runs. Only a
 //!   refusal that retrying cannot fix (e.g. 401 for a wrong token) ends [`run`] with an error.
 //! - A lease that cannot be worked (scene missing or broken, bad parameters) is given back with
 //!   `DELETE` and the worker carries on.
-//! - Prefetch: as soon as a unit is leased, the next lease is requested in the background, so
-//!   the pool goes straight from one unit to the next (no lease round trip in between). A worker
-//!   holds at most two leases: the unit in hand and one prefetched. The prefetched lease is
-//!   heartbeated while it waits; lost meanwhile (409, deadline) it is dropped and another asked
-//!   for. Units still render one at a time, in the order they were leased.
+//! - Prefetch: as soon as a unit is leased, the next lease is requested in the background and,
+//!   once the unit in hand is queued, the next one is queued behind it, so the pool goes
+//!   straight from one unit's last rows to the next one's first (no lease round trip, no
+//!   hand-over in between). A worker holds at most two leases: the unit in hand and one
+//!   prefetched. The prefetched lease is heartbeated while it waits; lost meanwhile (409,
+//!   deadline) it is dropped, its unit canceled, and another asked for. Units start in the order
+//!   they were leased and overlap only at their boundary.
 //! - Uploads run in the background, at most one in flight: the next unit's result waits for the
 //!   previous upload to end.
 //! - Shutdown: no new leases; a prefetched lease is given back at once; the unit in hand gets
@@ -42,18 +46,20 @@ mod cache;
 mod convert;
 mod prefetch;
 mod prepare;
+mod queue;
 mod retry;
 #[cfg(test)]
 mod tests;
 
 pub use convert::{render_settings, to_wire};
 
-use crate::tracer::{TileSums, render_tile_cancellable};
+use crate::tracer::{RowQueue, TileSums};
 use anyhow::{Context, anyhow};
 use api::{Api, CallError, HeartbeatAnswer, LeaseAnswer, UploadAnswer};
 use cache::SceneCache;
 use prefetch::Prefetch;
 use prepare::Prepared;
+use queue::Queued;
 use retry::{Backoff, RETRY, Retried, Stop, until_done};
 use std::future::Future;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -87,8 +93,9 @@ pub struct WorkerReport {
     /// passed with the coordinator unreachable), or given back at shutdown; prefetched leases
     /// lost while waiting or given back at shutdown included.
     pub units_canceled: u64,
-    /// Time the render pool spent rendering units (canceled ones included): against the
-    /// worker's wall time, what it spent waiting for leases, scenes and the coordinator.
+    /// Time the render pool spent rendering units (canceled ones included), as the mean over its
+    /// threads of each one's time on units' rows: against the worker's wall time, what it spent
+    /// waiting for leases, scenes and the coordinator.
     pub busy: Duration,
 }
 
@@ -110,7 +117,7 @@ const RELEASE_ATTEMPTS: u32 = 3;
 /// a refusal retrying cannot fix, such as 401 for a wrong token; an unreachable or restarting
 /// coordinator is waited for.
 pub async fn run(config: WorkerConfig, shutdown: impl Future<Output = ()> + Send) -> anyhow::Result<WorkerReport> {
-    let worker = Worker::new(&config)?;
+    let worker = Arc::new(Worker::new(&config)?);
     let (stop_tx, stop) = Stop::new();
     let work = worker.main_loop(stop);
     tokio::pin!(work, shutdown);
@@ -164,8 +171,8 @@ struct Worker {
     api: Arc<Api>,
     pool: Arc<rayon::ThreadPool>,
     scenes: Arc<Mutex<SceneCache>>,
-    /// Nanoseconds the pool spent rendering units (canceled ones included).
-    busy_ns: AtomicU64,
+    /// Nanoseconds the pool spent rendering units (canceled ones included; see `busy`).
+    busy_ns: Arc<AtomicU64>,
 }
 
 impl Worker {
@@ -181,11 +188,11 @@ impl Worker {
             api: Arc::new(api),
             pool: Arc::new(pool),
             scenes: Arc::new(Mutex::new(SceneCache::default())),
-            busy_ns: AtomicU64::new(0),
+            busy_ns: Arc::new(AtomicU64::new(0)),
         })
     }
 
-    async fn main_loop(&self, stop: Stop) -> anyhow::Result<WorkerReport> {
+    async fn main_loop(self: &Arc<Self>, stop: Stop) -> anyhow::Result<WorkerReport> {
         info!(coordinator = self.api.base(), threads = self.pool.current_num_threads(), name = %self.name, "worker starting");
         let mut carry = Carry::default();
         let result = self.serve(&stop, &mut carry).await;
@@ -209,13 +216,13 @@ impl Worker {
     }
 
     /// The loop proper; returns on shutdown or a fatal refusal.
-    async fn serve(&self, stop: &Stop, carry: &mut Carry) -> anyhow::Result<()> {
+    async fn serve(self: &Arc<Self>, stop: &Stop, carry: &mut Carry) -> anyhow::Result<()> {
         let Some(mut reg) = self.register(stop).await? else { return Ok(()) };
         carry.worker_id = Some(reg.worker_id.clone());
         let mut idle = IDLE;
         loop {
             let worker_id = reg.worker_id.as_str();
-            let answer = self.next_lease(worker_id, stop, carry).await;
+            let (answer, queued) = self.next_lease(worker_id, stop, carry).await;
             let lease = match answer {
                 Retried::Done(LeaseAnswer::Lease(lease)) => lease,
                 Retried::Done(LeaseAnswer::NoWork) => {
@@ -243,9 +250,12 @@ impl Worker {
                     return Ok(());
                 }
             };
-            // The next lease is fetched (and held) while this unit renders.
-            carry.prefetch = Some(Prefetch::start(self.api.clone(), worker_id.to_owned(), heartbeat_every(&reg), stop.clone()));
-            match self.run_unit(&lease, heartbeat_every(&reg), stop).await {
+            // The next lease is fetched, and its unit queued on the pool, while this one renders;
+            // its scene is prepared only once this unit's is (so one build serves both, and an
+            // animation's next frame is refitted from this one).
+            let (scene_ready, after) = tokio::sync::oneshot::channel();
+            carry.prefetch = Some(Prefetch::start(self.clone(), worker_id.to_owned(), heartbeat_every(&reg), stop.clone(), after));
+            match self.run_unit(&lease, queued, scene_ready, heartbeat_every(&reg), stop).await {
                 Unit::Rendered { sums, deadline, prepared } => {
                     idle.reset();
                     if let Some(previous) = carry.uploading.take() {
@@ -276,19 +286,30 @@ impl Worker {
         }
     }
 
-    /// The prefetched lease (or the answer of the prefetch's request), else a lease request now.
-    async fn next_lease(&self, worker_id: &str, stop: &Stop, carry: &mut Carry) -> Retried<LeaseAnswer> {
+    /// The prefetched lease (or the answer of the prefetch's request) with its unit when the
+    /// prefetch queued it, else a lease request now.
+    async fn next_lease(&self, worker_id: &str, stop: &Stop, carry: &mut Carry) -> (Retried<LeaseAnswer>, Option<Queued>) {
         if let Some(p) = carry.prefetch.take()
-            && let Some(answer) = p.take(&mut carry.report.units_canceled).await
+            && let Some(fetched) = p.take(&mut carry.report.units_canceled).await
         {
-            return answer;
+            return fetched;
         }
-        until_done("lease request", stop, LEASE_DRAIN, || self.api.lease(worker_id)).await
+        (until_done("lease request", stop, LEASE_DRAIN, || self.api.lease(worker_id)).await, None)
+    }
+
+    /// Prepares a unit (its settings, its frame's scene) and queues it on the render pool.
+    async fn queue_unit(&self, lease: &Lease) -> Result<Queued, String> {
+        let settings = check_unit(lease).map_err(|e| format!("cannot work this unit: {e}"))?;
+        let (scene, prepared) = self.frame_scene(lease).await?;
+        let cancel = Arc::new(AtomicBool::new(false));
+        let (tile, samples) = (convert::tile(lease.tile), lease.samples[0]..lease.samples[1]);
+        let unit = RowQueue::new(scene, settings, tile, samples, cancel.clone()).map_err(|e| format!("cannot render: {e}"))?;
+        Ok(queue::queue(&self.pool, unit, cancel, prepared, self.busy_ns.clone()))
     }
 
     /// Ends a prefetch when the loop has ended; a lease it still got is given back.
     async fn give_back(&self, prefetch: Prefetch, report: &mut WorkerReport) {
-        if let Some(Retried::Done(LeaseAnswer::Lease(lease)) | Retried::Stopped(Some(LeaseAnswer::Lease(lease)))) = prefetch.take(&mut report.units_canceled).await {
+        if let Some((Retried::Done(LeaseAnswer::Lease(lease)) | Retried::Stopped(Some(LeaseAnswer::Lease(lease))), _queued)) = prefetch.take(&mut report.units_canceled).await {
             self.release(&lease.lease_id).await;
             report.units_canceled += 1;
         }
@@ -308,60 +329,51 @@ impl Worker {
         }
     }
 
-    /// One unit: parameters, scene, render, all under heartbeats.
-    async fn run_unit(&self, lease: &Lease, heartbeat_every: Duration, stop: &Stop) -> Unit {
+    /// One unit under heartbeats: queued on the pool unless the prefetch did it (`queued`), then
+    /// waited for. `scene_ready` is dropped once the unit is queued (or cannot be).
+    async fn run_unit(&self, lease: &Lease, queued: Option<Queued>, scene_ready: tokio::sync::oneshot::Sender<()>, heartbeat_every: Duration, stop: &Stop) -> Unit {
         let id = lease.lease_id.as_str();
         let deadline = Mutex::new(Instant::now() + Duration::from_millis(lease.deadline_ms));
-        debug!(lease = id, job = %lease.job_id, tile = ?lease.tile, samples = ?lease.samples, "leased a unit");
-        let settings = match check_unit(lease) {
-            Ok(s) => s,
-            Err(e) => {
-                error!(lease = id, job = %lease.job_id, "cannot work this unit: {e}; giving the lease back");
-                self.release(id).await;
-                return Unit::Failed;
-            }
-        };
+        debug!(lease = id, job = %lease.job_id, tile = ?lease.tile, samples = ?lease.samples, queued = queued.is_some(), "leased a unit");
         let keep_alive = self.keep_alive(id, heartbeat_every, &deadline);
         tokio::pin!(keep_alive);
 
-        // The frame's scene: from the cache, refitted, or built (downloading the file first).
-        let (scene, prepared) = tokio::select! {
-            r = self.frame_scene(lease) => match r {
-                Ok(made) => made,
-                Err(e) => {
-                    error!(lease = id, scene = %lease.scene_id, "{e}; giving the lease back");
+        // The frame's scene (from the cache, refitted, or built) and the unit queued behind it.
+        let started = Instant::now();
+        let mut unit = match queued {
+            Some(q) => q,
+            None => tokio::select! {
+                r = self.queue_unit(lease) => match r {
+                    Ok(q) => q,
+                    Err(e) => {
+                        error!(lease = id, job = %lease.job_id, "{e}; giving the lease back");
+                        self.release(id).await;
+                        return Unit::Failed;
+                    }
+                },
+                why = &mut keep_alive => {
+                    info!(lease = id, "lease lost while fetching its scene: {why}");
+                    return Unit::Canceled;
+                }
+                () = stop.wait() => {
                     self.release(id).await;
-                    return Unit::Failed;
+                    return Unit::Abandoned;
                 }
             },
-            why = &mut keep_alive => {
-                info!(lease = id, "lease lost while fetching its scene: {why}");
-                return Unit::Canceled;
-            }
-            () = stop.wait() => {
-                self.release(id).await;
-                return Unit::Abandoned;
-            }
         };
 
-        // The render, on the pool; the heartbeats and the shutdown request only set the flag,
-        // then wait for the pool to let go (within a row), so the next unit finds it free.
-        let started = Instant::now();
-        let cancel = Arc::new(AtomicBool::new(false));
-        let render = {
-            let (pool, cancel) = (self.pool.clone(), cancel.clone());
-            let (tile, samples) = (convert::tile(lease.tile), lease.samples[0]..lease.samples[1]);
-            on_pool(&pool, move || render_tile_cancellable(&scene, &settings, tile, samples, &cancel))
-        };
-        tokio::pin!(render);
+        drop(scene_ready);
+
+        // The heartbeats and the shutdown request only set the unit's cancel flag, then wait
+        // for the pool to let go (within a row), so the next unit finds it free.
         let grace = tokio::time::sleep(Duration::from_secs(365 * 24 * 3600));
         tokio::pin!(grace);
         let (mut lost, mut stopping, mut abandoned) = (None, false, false);
         let joined = loop {
             tokio::select! {
-                joined = &mut render => break joined,
+                joined = &mut unit.result => break joined,
                 why = &mut keep_alive, if lost.is_none() => {
-                    cancel.store(true, Ordering::Relaxed);
+                    unit.cancel();
                     lost = Some(why);
                 }
                 () = stop.wait(), if !stopping => {
@@ -371,11 +383,10 @@ impl Worker {
                 }
                 () = &mut grace, if stopping && !abandoned => {
                     abandoned = true;
-                    cancel.store(true, Ordering::Relaxed);
+                    unit.cancel();
                 }
             }
         };
-        self.busy_ns.fetch_add(u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX), Ordering::Relaxed);
         if let Some(why) = lost {
             info!(lease = id, job = %lease.job_id, "lease lost while rendering: {why}; unit dropped");
             return Unit::Canceled;
@@ -389,11 +400,11 @@ impl Worker {
             Ok(Ok(Some(sums))) => {
                 debug!(lease = id, ms = started.elapsed().as_millis() as u64, "unit rendered");
                 let deadline = *deadline.lock().expect("deadline lock");
-                return Unit::Rendered { sums, deadline, prepared };
+                return Unit::Rendered { sums, deadline, prepared: unit.prepared };
             }
             Ok(Ok(None)) => "the render stopped without being canceled".to_owned(),
-            Ok(Err(e)) => format!("cannot render: {e}"),
-            Err(e) => format!("the renderer failed: {e}"),
+            Ok(Err(e)) => format!("the renderer failed: {e}"),
+            Err(_) => "the render pool dropped the unit".to_owned(),
         };
         error!(lease = id, job = %lease.job_id, "{error}; giving the lease back");
         self.release(id).await;
@@ -408,33 +419,6 @@ impl Worker {
     /// Gives a lease back (see [`release`]).
     async fn release(&self, id: &str) {
         release(&self.api, id).await;
-    }
-}
-
-/// Runs `work` on the render pool and resolves with its result; a panic becomes an error. The
-/// job goes to the pool straight from the async side and its result comes back through a
-/// channel, without the blocking thread that used to sit in between (`spawn_blocking` +
-/// `install`): one thread to wake less per unit. The pool still idles 0.5–0.7 ms between units
-/// on a 2-core VM (docs/performance.md), mostly the async side's turnaround.
-fn on_pool<T, F>(pool: &rayon::ThreadPool, work: F) -> impl Future<Output = Result<T, String>> + use<T, F>
-where
-    T: Send + 'static,
-    F: FnOnce() -> T + Send + 'static,
-{
-    let (tx, rx) = tokio::sync::oneshot::channel();
-    pool.spawn(move || {
-        let _ = tx.send(std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)));
-    });
-    async move {
-        match rx.await {
-            Ok(Ok(value)) => Ok(value),
-            Ok(Err(panic)) => Err(match (panic.downcast_ref::<&str>(), panic.downcast_ref::<String>()) {
-                (Some(m), _) => format!("it panicked: {m}"),
-                (_, Some(m)) => format!("it panicked: {m}"),
-                _ => "it panicked".to_owned(),
-            }),
-            Err(_) => Err("the render pool dropped the unit".to_owned()),
-        }
     }
 }
 

@@ -642,14 +642,3 @@ async fn shutdown_gives_back_a_prefetched_lease() {
     assert_eq!(log.released, ["next", "long"]);
     assert_eq!(log.results.len(), 1, "only the warm-up unit is uploaded");
 }
-
-#[tokio::test]
-async fn work_on_the_pool_returns_its_value_and_a_panic_becomes_an_error() {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-    let name = on_pool(&pool, || rayon::current_thread_index().map(|i| i < 2)).await;
-    assert_eq!(name, Ok(Some(true)), "the work ran on the pool");
-    let failed = on_pool(&pool, || -> u32 { panic!("a broken unit") }).await;
-    assert_eq!(failed, Err("it panicked: a broken unit".to_owned()));
-    // The pool survives the panic and takes the next unit.
-    assert_eq!(on_pool(&pool, || 7).await, Ok(7));
-}

@@ -66,18 +66,34 @@ pub fn render_tile_kernel(
     cancel: &AtomicBool,
     kernel: Option<KernelBits>,
 ) -> Result<Option<TileSums>, String> {
-    if tile.x0 + tile.w > settings.width || tile.y0 + tile.h > settings.height {
-        return Err(format!("tile {tile:?} exceeds the {}×{} image", settings.width, settings.height));
+    let plan = UnitPlan::new(scene, settings, tile, kernel)?;
+    let integrator = Integrator::new(scene, settings.background, plan.path);
+    Ok(dispatch_kernel!(plan.kernel, render_rows(&integrator, &plan.camera, settings, tile, samples, cancel)))
+}
+
+/// What a unit's rows share, worked out once: the camera bound to the image, the path
+/// settings capped to the scene's needed depth, the kernel.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct UnitPlan {
+    pub camera: RasterCamera,
+    pub path: PathSettings,
+    pub kernel: KernelBits,
+}
+
+impl UnitPlan {
+    /// Checks the tile against the image and resolves the camera (None: the scene's first).
+    pub(crate) fn new(scene: &Scene, settings: &RenderSettings, tile: Tile, kernel: Option<KernelBits>) -> Result<UnitPlan, String> {
+        if tile.x0.checked_add(tile.w).is_none_or(|x| x > settings.width) || tile.y0.checked_add(tile.h).is_none_or(|y| y > settings.height) {
+            return Err(format!("tile {tile:?} exceeds the {}×{} image", settings.width, settings.height));
+        }
+        let camera = scene.camera(settings.camera.as_deref())?;
+        let mut path = settings.path;
+        if kernel.is_none() {
+            path.max_depth = path.max_depth.min(scene.needed_depth(settings.background));
+        }
+        let kernel = kernel.unwrap_or_else(|| scene.effects_for(camera, settings.background).kernel());
+        Ok(UnitPlan { camera: camera.raster(settings.width, settings.height), path, kernel })
     }
-    let camera = scene.camera(settings.camera.as_deref())?;
-    let mut path = settings.path;
-    if kernel.is_none() {
-        path.max_depth = path.max_depth.min(scene.needed_depth(settings.background));
-    }
-    let kernel = kernel.unwrap_or_else(|| scene.effects_for(camera, settings.background).kernel());
-    let camera = camera.raster(settings.width, settings.height);
-    let integrator = Integrator::new(scene, settings.background, path);
-    Ok(dispatch_kernel!(kernel, render_rows(&integrator, &camera, settings, tile, samples, cancel)))
 }
 
 fn render_rows<E: EffectSet>(
@@ -89,7 +105,7 @@ fn render_rows<E: EffectSet>(
     cancel: &AtomicBool,
 ) -> Option<TileSums> {
     let mut out = TileSums::new(tile);
-    let rows: Vec<(u64, f32, u64)> = out
+    let rows: Vec<RowStats> = out
         .pixels
         .par_chunks_mut(tile.w.max(1) as usize)
         .enumerate()
@@ -98,38 +114,66 @@ fn render_rows<E: EffectSet>(
         .with_max_len(1)
         .map(|(row, pixels)| {
             if cancel.load(Ordering::Relaxed) {
-                return (0, 0.0, 0);
+                return RowStats::default();
             }
-            let py = tile.y0 + row as u32;
-            let (mut dropped, mut max_weight, mut rays) = (0u64, 0f32, 0u64);
-            for (col, sums) in pixels.iter_mut().enumerate() {
-                let px = tile.x0 + col as u32;
-                for index in samples.clone() {
-                    let mut sampler = Sampler::start(settings.sampler, settings.seed, px, py, index);
-                    let jitter = sampler.get_2d();
-                    let ray = if E::DOF { camera.ray_lens(px, py, jitter, sampler.get_2d()) } else { camera.ray(px, py, jitter) };
-                    let s = integrator.li_for::<E>(ray, &mut sampler);
-                    rays += u64::from(s.rays);
-                    if s.radiance.is_finite() {
-                        sums.add_sample(s.radiance);
-                        max_weight = max_weight.max(s.max_weight);
-                    } else {
-                        dropped += 1;
-                    }
-                }
-            }
-            (dropped, max_weight, rays)
+            render_row::<E>(integrator, camera, settings, tile.x0, tile.y0 + row as u32, samples.clone(), pixels)
         })
         .collect();
     if cancel.load(Ordering::Relaxed) {
         return None;
     }
-    for (d, w, r) in rows {
-        out.dropped += d;
-        out.max_weight = out.max_weight.max(w);
-        out.rays += r;
+    for stats in rows {
+        stats.add_to(&mut out);
     }
     Some(out)
+}
+
+/// What a row adds to its tile's totals besides its pixels.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct RowStats {
+    dropped: u64,
+    max_weight: f32,
+    rays: u64,
+}
+
+impl RowStats {
+    /// Integer sums and a maximum: the same whatever order rows are added in.
+    pub(crate) fn add_to(self, out: &mut TileSums) {
+        out.dropped += self.dropped;
+        out.max_weight = out.max_weight.max(self.max_weight);
+        out.rays += self.rays;
+    }
+}
+
+/// Adds samples `samples` of the pixels of row `py` starting at column `x0` into `pixels`, each
+/// pixel's samples in index order, so a pixel's sums do not depend on which thread ran the row.
+pub(crate) fn render_row<E: EffectSet>(
+    integrator: &Integrator,
+    camera: &RasterCamera,
+    settings: &RenderSettings,
+    x0: u32,
+    py: u32,
+    samples: Range<u32>,
+    pixels: &mut [PixelSums],
+) -> RowStats {
+    let mut stats = RowStats::default();
+    for (col, sums) in pixels.iter_mut().enumerate() {
+        let px = x0 + col as u32;
+        for index in samples.clone() {
+            let mut sampler = Sampler::start(settings.sampler, settings.seed, px, py, index);
+            let jitter = sampler.get_2d();
+            let ray = if E::DOF { camera.ray_lens(px, py, jitter, sampler.get_2d()) } else { camera.ray(px, py, jitter) };
+            let s = integrator.li_for::<E>(ray, &mut sampler);
+            stats.rays += u64::from(s.rays);
+            if s.radiance.is_finite() {
+                sums.add_sample(s.radiance);
+                stats.max_weight = stats.max_weight.max(s.max_weight);
+            } else {
+                stats.dropped += 1;
+            }
+        }
+    }
+    stats
 }
 
 /// Mean radiance over a whole frame of sums (for tests and quick checks).
