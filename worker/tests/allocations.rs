@@ -1,5 +1,6 @@
 //! No allocation per sample: rendering a tile allocates the same number of times whether it
-//! takes 4 or 64 samples per pixel, on every bundled scene (so for every effect kernel).
+//! takes 4 or 64 samples per pixel, on every bundled scene (so for every effect kernel), through
+//! `render_tile` and through a `RowQueue` (the worker's way).
 //!
 //! A counting global allocator sees every allocation in this test binary, which holds this one
 //! test only, so nothing else allocates concurrently. Per-unit and per-row allocations (the
@@ -7,7 +8,9 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicU64, Ordering};
 use tessera_worker::tracer::sampler::SamplerKind;
-use tessera_worker::tracer::{PathSettings, RenderSettings, Tile, render_tile};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use tessera_worker::tracer::{PathSettings, RenderSettings, RowQueue, Scene, Tile, TileSums, render_tile};
 
 struct Counting;
 
@@ -30,10 +33,21 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-fn allocations_for(scene: &tessera_worker::tracer::Scene, settings: &RenderSettings, spp: u32) -> u64 {
-    let tile = Tile { x0: 8, y0: 8, w: 16, h: 16 };
+const TILE: Tile = Tile { x0: 8, y0: 8, w: 16, h: 16 };
+
+fn by_render_tile(scene: &Arc<Scene>, settings: &RenderSettings, spp: u32) -> TileSums {
+    render_tile(scene, settings, TILE, 0..spp).expect("renders")
+}
+
+fn by_row_queue(scene: &Arc<Scene>, settings: &RenderSettings, spp: u32) -> TileSums {
+    let unit = RowQueue::new(scene.clone(), settings.clone(), TILE, 0..spp, Arc::new(AtomicBool::new(false))).expect("a valid unit");
+    assert!(unit.work(), "one thread finishes the unit");
+    unit.take().expect("not canceled")
+}
+
+fn allocations_for(render: fn(&Arc<Scene>, &RenderSettings, u32) -> TileSums, scene: &Arc<Scene>, settings: &RenderSettings, spp: u32) -> u64 {
     let before = ALLOCATIONS.load(Ordering::Relaxed);
-    let sums = render_tile(scene, settings, tile, 0..spp).expect("renders");
+    let sums = render(scene, settings, spp);
     let after = ALLOCATIONS.load(Ordering::Relaxed);
     assert_eq!(sums.pixels.iter().map(|p| p.count).sum::<u64>() + sums.dropped, u64::from(spp) * 256);
     drop(sums);
@@ -49,7 +63,7 @@ fn the_hot_loop_does_not_allocate_per_sample() {
     // One thread: rayon's workers are started once, outside what is counted.
     rayon::ThreadPoolBuilder::new().num_threads(1).build_global().unwrap();
     for path in names {
-        let scene = tessera_worker::scene::load_path(&path).unwrap();
+        let scene = Arc::new(tessera_worker::scene::load_path(&path).unwrap());
         let settings = RenderSettings {
             width: 32,
             height: 32,
@@ -59,9 +73,11 @@ fn the_hot_loop_does_not_allocate_per_sample() {
             background: glam::Vec3::splat(0.2),
             camera: None,
         };
-        allocations_for(&scene, &settings, 4); // warm-up: lazily initialised statics
-        let few = allocations_for(&scene, &settings, 4);
-        let many = allocations_for(&scene, &settings, 64);
-        assert_eq!(many, few, "{}: {few} allocations at 4 spp but {many} at 64 spp", path.display());
+        for (how, render) in [("render_tile", by_render_tile as fn(&_, &_, _) -> _), ("RowQueue", by_row_queue)] {
+            allocations_for(render, &scene, &settings, 4); // warm-up: lazily initialised statics
+            let few = allocations_for(render, &scene, &settings, 4);
+            let many = allocations_for(render, &scene, &settings, 64);
+            assert_eq!(many, few, "{} by {how}: {few} allocations at 4 spp but {many} at 64 spp", path.display());
+        }
     }
 }

@@ -58,6 +58,9 @@ struct FarmRun {
     total: f64,
     /// The worker's pool rendering (its report).
     busy: f64,
+    /// Units the worker rendered, and those its prefetch had queued on the pool in advance.
+    units: u64,
+    queued_ahead: u64,
     /// CPU seconds of the whole process (every thread: coordinator, worker, client).
     cpu: f64,
     /// CPU seconds of the worker's render threads, and of the process's other live threads,
@@ -86,7 +89,7 @@ pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
         }
         let f = farm[farm.len() - 1];
         eprintln!(
-            "  pair {r} ({}): alone {:.3} s | farm up {:.3}, job {:.3} (coordinator), done seen {:.3}, EXR {:.3}, stopped {:.3} s; worker busy {:.3} s, idle in job {:.3} s",
+            "  pair {r} ({}): alone {:.3} s | farm up {:.3}, job {:.3} (coordinator), done seen {:.3}, EXR {:.3}, stopped {:.3} s; worker busy {:.3} s, idle in job {:.3} s; {} of {} units queued behind the one before",
             if farm_first { "farm first" } else { "alone first" },
             alone[alone.len() - 1],
             f.up,
@@ -95,7 +98,9 @@ pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
             f.exr,
             f.total,
             f.busy,
-            f.job - f.busy
+            f.job - f.busy,
+            f.queued_ahead,
+            f.units
         );
     }
     report(b, &alone, &farm);
@@ -274,9 +279,11 @@ fn farm_run(rt: &tokio::runtime::Runtime, b: &OverheadBench, r: u32) -> anyhow::
     let total = t.elapsed().as_secs_f64();
     let cpu = cpu_seconds() - cpu;
     let _ = std::fs::remove_dir_all(&data);
-    let busy = reports.first().copied().flatten().map_or(f64::NAN, |w| w.busy.as_secs_f64());
+    let report = reports.first().copied().flatten();
+    let busy = report.map_or(f64::NAN, |w| w.busy.as_secs_f64());
+    let (units, queued_ahead) = report.map_or((0, 0), |w| (w.units_done + w.units_stale + w.units_canceled, w.units_queued_ahead));
     let (up, job, seen, exr, (render_cpu, other_cpu)) = phases;
-    Ok(FarmRun { up, job, seen, exr, total, busy, cpu, render_cpu, other_cpu })
+    Ok(FarmRun { up, job, seen, exr, total, busy, units, queued_ahead, cpu, render_cpu, other_cpu })
 }
 
 #[cfg(test)]

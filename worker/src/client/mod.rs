@@ -93,6 +93,9 @@ pub struct WorkerReport {
     /// passed with the coordinator unreachable), or given back at shutdown; prefetched leases
     /// lost while waiting or given back at shutdown included.
     pub units_canceled: u64,
+    /// Units that were already queued on the pool, behind the unit before them, when their
+    /// turn came (the prefetch queued them): the pool went straight from one to the other.
+    pub units_queued_ahead: u64,
     /// Time the render pool spent rendering units (canceled ones included), as the mean over its
     /// threads of each one's time on units' rows: against the worker's wall time, what it spent
     /// waiting for leases, scenes and the coordinator.
@@ -211,7 +214,7 @@ impl Worker {
             }
         }
         report.busy = Duration::from_nanos(self.busy_ns.load(Ordering::Relaxed));
-        info!(units_done = report.units_done, units_stale = report.units_stale, units_canceled = report.units_canceled, busy_s = report.busy.as_secs_f64(), "worker stopped");
+        info!(units_done = report.units_done, units_stale = report.units_stale, units_canceled = report.units_canceled, units_queued_ahead = report.units_queued_ahead, busy_s = report.busy.as_secs_f64(), "worker stopped");
         result.map(|()| report)
     }
 
@@ -253,6 +256,7 @@ impl Worker {
             // The next lease is fetched, and its unit queued on the pool, while this one renders;
             // its scene is prepared only once this unit's is (so one build serves both, and an
             // animation's next frame is refitted from this one).
+            carry.report.units_queued_ahead += u64::from(queued.is_some());
             let (scene_ready, after) = tokio::sync::oneshot::channel();
             carry.prefetch = Some(Prefetch::start(self.clone(), worker_id.to_owned(), heartbeat_every(&reg), stop.clone(), after));
             match self.run_unit(&lease, queued, scene_ready, heartbeat_every(&reg), stop).await {

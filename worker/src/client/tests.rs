@@ -310,7 +310,7 @@ async fn renders_every_lease_bit_exactly_with_one_scene_download() {
     wait_until("four results arrive", Duration::from_secs(30), || mock.log().results.len() == 4).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 3, units_stale: 1, units_canceled: 0, busy: report.busy });
+    assert_eq!(report, WorkerReport { units_done: 3, units_stale: 1, units_canceled: 0, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
     let log = mock.log();
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["a", "b", "c", "d"]);
@@ -342,7 +342,7 @@ async fn a_409_heartbeat_cancels_a_long_unit_quickly() {
     wait_until("the next unit's result arrives", Duration::from_secs(30), || mock.log().results.len() == 2).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 1, busy: report.busy });
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 1, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
     let log = mock.log();
     let killed = log.killed_at.expect("a heartbeat was refused");
     let reaction = log.results[1].3 - killed;
@@ -439,7 +439,7 @@ async fn shutdown_gives_back_an_unfinished_unit() {
     wait_until("the long unit is rendering", Duration::from_secs(30), || mock.log().heartbeats.iter().any(|h| h.1 == "long")).await;
     let (report, took) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 1, busy: report.busy });
+    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 1, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
     assert!(took < SHUTDOWN_GRACE + Duration::from_secs(2), "shutdown took {took:?}");
     let log = mock.log();
     assert_eq!(log.released, ["long"]);
@@ -458,7 +458,7 @@ async fn shutdown_lets_the_unit_in_hand_finish_within_the_grace() {
     let stopped_at = Instant::now();
     let (report, _) = worker.stop(Duration::from_secs(15)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 0, busy: report.busy });
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 0, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
     let log = mock.log();
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["warm", "in-hand"]);
@@ -479,7 +479,7 @@ async fn retries_a_failing_upload() {
     wait_until("the third attempt arrives", Duration::from_secs(30), || mock.log().results.len() == 3).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 0, busy: report.busy });
+    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 0, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
     let log = mock.log();
     assert!(log.results.iter().all(|r| r.0 == "a" && r.2 == log.results[0].2));
     assert_bit_exact(&log.results[2].2, &params(16, 8));
@@ -562,7 +562,7 @@ async fn requests_the_next_lease_while_a_unit_renders() {
     wait_until("three results arrive", Duration::from_secs(30), || mock.log().results.len() == 3).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 3, units_stale: 0, units_canceled: 0, busy: report.busy });
+    assert_eq!(report, WorkerReport { units_done: 3, units_stale: 0, units_canceled: 0, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
     assert!(report.busy > Duration::ZERO);
     let log = mock.log();
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
@@ -600,7 +600,10 @@ async fn a_prefetched_lease_is_heartbeated_while_it_waits() {
     wait_until("\"next\"'s result arrives", Duration::from_secs(30), || mock.log().results.len() == 2).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 1, busy: report.busy });
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 1, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
+    // "next" waited queued on the pool behind "long" ("long" itself may or may not have been
+    // queued behind the short "warm").
+    assert!((1..=2).contains(&report.units_queued_ahead), "{report:?}");
     let log = mock.log();
     assert_eq!(log.results[1].0, "next");
     assert_bit_exact(&log.results[1].2, &params(16, 8));
@@ -619,7 +622,7 @@ async fn a_prefetched_lease_lost_while_waiting_is_dropped() {
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
     // "doomed" (lost while waiting) and "long" (lost while rendering) count as canceled.
-    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 2, busy: report.busy });
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 2, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
     let log = mock.log();
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["warm", "next"]);
@@ -636,7 +639,7 @@ async fn shutdown_gives_back_a_prefetched_lease() {
     wait_until("\"next\" is given back", SHUTDOWN_GRACE / 2, || mock.log().released.iter().any(|r| r == "next")).await;
     let (report, took) = stopping.await.unwrap();
 
-    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 2, busy: report.busy });
+    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 2, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
     assert!(took < SHUTDOWN_GRACE + Duration::from_secs(2), "shutdown took {took:?}");
     let log = mock.log();
     assert_eq!(log.released, ["next", "long"]);
