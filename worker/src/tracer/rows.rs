@@ -59,22 +59,28 @@ impl RowQueue {
     /// finished the unit's last row: the unit is then complete, and [`RowQueue::take`] has it.
     /// A row that panics still counts as finished (the panic goes on to the caller).
     pub fn work(&self) -> bool {
+        let Some(mut row) = self.claim() else { return false };
+        // Made once a row is in hand: a thread that arrives after the last claim costs nothing.
         let integrator = Integrator::new(&self.scene, self.settings.background, self.plan.path);
         let mut row_buf = vec![PixelSums::default(); self.tile.w as usize];
-        let mut finished_unit = false;
         loop {
-            let row = self.next_row.fetch_add(1, Ordering::Relaxed);
-            if row >= self.tile.h {
-                return finished_unit;
-            }
             let finishing = RowFinishing(&self.rows_left);
             if !self.cancel.load(Ordering::Relaxed) {
                 row_buf.fill(PixelSums::default());
                 let stats = self.render_row(&integrator, row, &mut row_buf);
                 self.store_row(row, &row_buf, stats);
             }
-            finished_unit = finishing.finish();
+            let finished_unit = finishing.finish();
+            match self.claim() {
+                Some(next) => row = next,
+                None => return finished_unit,
+            }
         }
+    }
+
+    /// The next unclaimed row, if any.
+    fn claim(&self) -> Option<u32> {
+        Some(self.next_row.fetch_add(1, Ordering::Relaxed)).filter(|&row| row < self.tile.h)
     }
 
     /// The unit's sums once [`RowQueue::work`] has answered true; None if it was canceled.
