@@ -9,7 +9,6 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicU64, Ordering};
 use tessera_worker::tracer::sampler::SamplerKind;
 use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 use tessera_worker::tracer::{PathSettings, RenderSettings, RowQueue, Scene, Tile, TileSums, render_tile};
 
 struct Counting;
@@ -40,7 +39,7 @@ fn by_render_tile(scene: &Arc<Scene>, settings: &RenderSettings, spp: u32) -> Ti
 }
 
 fn by_row_queue(scene: &Arc<Scene>, settings: &RenderSettings, spp: u32) -> TileSums {
-    let unit = RowQueue::new(scene.clone(), settings.clone(), TILE, 0..spp, Arc::new(AtomicBool::new(false))).expect("a valid unit");
+    let unit = RowQueue::new(scene.clone(), settings.clone(), TILE, 0..spp).expect("a valid unit");
     assert!(unit.work(), "one thread finishes the unit");
     unit.take().expect("not canceled")
 }

@@ -62,7 +62,7 @@ use prepare::Prepared;
 use queue::Queued;
 use retry::{Backoff, RETRY, Retried, Stop, until_done};
 use std::future::Future;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tessera_proto::{Lease, Registration, WorkerHello};
@@ -305,10 +305,9 @@ impl Worker {
     async fn queue_unit(&self, lease: &Lease) -> Result<Queued, String> {
         let settings = check_unit(lease).map_err(|e| format!("cannot work this unit: {e}"))?;
         let (scene, prepared) = self.frame_scene(lease).await?;
-        let cancel = Arc::new(AtomicBool::new(false));
         let (tile, samples) = (convert::tile(lease.tile), lease.samples[0]..lease.samples[1]);
-        let unit = RowQueue::new(scene, settings, tile, samples, cancel.clone()).map_err(|e| format!("cannot render: {e}"))?;
-        Ok(queue::queue(&self.pool, unit, cancel, prepared, self.busy_ns.clone()))
+        let unit = RowQueue::new(scene, settings, tile, samples).map_err(|e| format!("cannot render: {e}"))?;
+        Ok(queue::queue(&self.pool, unit, prepared, self.busy_ns.clone()))
     }
 
     /// Ends a prefetch when the loop has ended; a lease it still got is given back.

@@ -8,7 +8,7 @@
 //! started costs the pool (almost) nothing.
 use super::prepare::Prepared;
 use crate::tracer::{RowQueue, TileSums};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use tokio::sync::oneshot;
@@ -22,13 +22,13 @@ pub(super) struct Queued {
     pub prepared: Prepared,
     /// Resolves once the unit is complete, canceled or failed.
     pub result: oneshot::Receiver<Rendered>,
-    cancel: Arc<AtomicBool>,
+    unit: Arc<dyn Rows>,
 }
 
 impl Queued {
     /// Ends the unit's remaining rows at once; its result is then None.
     pub fn cancel(&self) {
-        self.cancel.store(true, Ordering::Relaxed);
+        self.unit.cancel();
     }
 }
 
@@ -45,6 +45,8 @@ pub(super) trait Rows: Send + Sync + 'static {
     fn work(&self) -> bool;
     /// The sums once complete; None if canceled.
     fn take(&self) -> Option<TileSums>;
+    /// Ends the remaining rows at once; `take` then answers None.
+    fn cancel(&self);
 }
 
 impl Rows for RowQueue {
@@ -54,19 +56,21 @@ impl Rows for RowQueue {
     fn take(&self) -> Option<TileSums> {
         RowQueue::take(self)
     }
+    fn cancel(&self) {
+        RowQueue::cancel(self);
+    }
 }
 
 /// Queues `unit` behind whatever the pool is doing. `busy_ns` gains the time each pool
 /// thread spent on the unit's rows, divided by the pool's thread count (so it stays within
 /// wall time however units overlap).
-pub(super) fn queue(pool: &rayon::ThreadPool, unit: impl Rows, cancel: Arc<AtomicBool>, prepared: Prepared, busy_ns: Arc<AtomicU64>) -> Queued {
+pub(super) fn queue(pool: &rayon::ThreadPool, unit: impl Rows, prepared: Prepared, busy_ns: Arc<AtomicU64>) -> Queued {
     let (tx, result) = oneshot::channel();
     let threads = pool.current_num_threads().max(1);
-    let shared = Arc::new((unit, Mutex::new(Some(tx))));
+    let (unit, tx) = (Arc::new(unit), Arc::new(Mutex::new(Some(tx))));
     for _ in 0..threads {
-        let (shared, busy_ns, cancel) = (shared.clone(), busy_ns.clone(), cancel.clone());
+        let (unit, tx, busy_ns) = (unit.clone(), tx.clone(), busy_ns.clone());
         pool.spawn(move || {
-            let (unit, tx) = &*shared;
             let started = Instant::now();
             let worked = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| unit.work()));
             let ns = u64::try_from(started.elapsed().as_nanos() / threads as u128).unwrap_or(u64::MAX);
@@ -75,7 +79,7 @@ pub(super) fn queue(pool: &rayon::ThreadPool, unit: impl Rows, cancel: Arc<Atomi
                 Ok(false) => return,
                 Ok(true) => Ok(unit.take()),
                 Err(panic) => {
-                    cancel.store(true, Ordering::Relaxed);
+                    unit.cancel();
                     Err(panic_message(panic.as_ref()))
                 }
             };
@@ -85,7 +89,7 @@ pub(super) fn queue(pool: &rayon::ThreadPool, unit: impl Rows, cancel: Arc<Atomi
             }
         });
     }
-    Queued { prepared, result, cancel }
+    Queued { prepared, result, unit }
 }
 
 fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
@@ -101,7 +105,7 @@ mod tests {
     use super::*;
     use super::super::prepare::How;
     use crate::tracer::Tile;
-    use std::sync::atomic::AtomicU32;
+    use std::sync::atomic::{AtomicBool, AtomicU32};
     use std::time::Duration;
 
     const CACHED: Prepared = Prepared { how: How::Cached, ms: 0.0 };
@@ -114,11 +118,12 @@ mod tests {
         ms: u64,
         panic_on: Option<u32>,
         threads: Mutex<Vec<usize>>,
+        canceled: AtomicBool,
     }
 
     impl StandIn {
         fn new(rows: u32, ms: u64, panic_on: Option<u32>) -> Arc<StandIn> {
-            Arc::new(StandIn { rows, next: AtomicU32::new(0), left: AtomicU32::new(rows), ms, panic_on, threads: Mutex::default() })
+            Arc::new(StandIn { rows, next: AtomicU32::new(0), left: AtomicU32::new(rows), ms, panic_on, threads: Mutex::default(), canceled: AtomicBool::new(false) })
         }
     }
 
@@ -139,10 +144,9 @@ mod tests {
         fn take(&self) -> Option<TileSums> {
             Some(TileSums::new(Tile { x0: 0, y0: 0, w: 1, h: 1 }))
         }
-    }
-
-    fn flag() -> Arc<AtomicBool> {
-        Arc::new(AtomicBool::new(false))
+        fn cancel(&self) {
+            self.canceled.store(true, Ordering::Relaxed);
+        }
     }
 
     #[tokio::test]
@@ -150,7 +154,7 @@ mod tests {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
         let busy = Arc::new(AtomicU64::new(0));
         let unit = StandIn::new(10, 30, None);
-        let mut queued = queue(&pool, unit.clone(), flag(), CACHED, busy.clone());
+        let mut queued = queue(&pool, unit.clone(), CACHED, busy.clone());
         let answer = (&mut queued.result).await.unwrap();
         assert_eq!(answer.unwrap().map(|s| s.pixels.len()), Some(1));
         let mut threads = unit.threads.lock().unwrap().clone();
@@ -164,11 +168,11 @@ mod tests {
     #[tokio::test]
     async fn a_panic_becomes_the_units_error_and_the_pool_goes_on() {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-        let cancel = flag();
-        let mut failed = queue(&pool, StandIn::new(4, 1, Some(1)), cancel.clone(), CACHED, Arc::default());
+        let unit = StandIn::new(4, 1, Some(1));
+        let mut failed = queue(&pool, unit.clone(), CACHED, Arc::default());
         assert_eq!((&mut failed.result).await.unwrap(), Err("it panicked: a broken row".to_owned()));
-        assert!(cancel.load(Ordering::Relaxed), "the unit's other rows are canceled");
-        let mut next = queue(&pool, StandIn::new(4, 1, None), flag(), CACHED, Arc::default());
+        assert!(unit.canceled.load(Ordering::Relaxed), "the unit's other rows are canceled");
+        let mut next = queue(&pool, StandIn::new(4, 1, None), CACHED, Arc::default());
         assert!(matches!((&mut next.result).await.unwrap(), Ok(Some(_))), "the pool takes the next unit");
     }
 
@@ -177,9 +181,8 @@ mod tests {
         // One slow row keeps a thread on the first unit; the other thread, out of rows, must
         // take the second unit's rows meanwhile instead of waiting for the first to end.
         let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-        let first = queue(&pool, StandIn::new(1, 300, None), flag(), CACHED, Arc::default());
-        let second = queue(&pool, StandIn::new(4, 1, None), flag(), CACHED, Arc::default());
-        let (mut first, mut second) = (first, second);
+        let mut first = queue(&pool, StandIn::new(1, 300, None), CACHED, Arc::default());
+        let mut second = queue(&pool, StandIn::new(4, 1, None), CACHED, Arc::default());
         tokio::select! {
             done = &mut second.result => assert!(matches!(done.unwrap(), Ok(Some(_)))),
             _ = &mut first.result => panic!("the second unit waited for the first"),
@@ -190,8 +193,8 @@ mod tests {
     #[test]
     fn dropping_a_queued_unit_cancels_it() {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-        let cancel = flag();
-        drop(queue(&pool, StandIn::new(1, 0, None), cancel.clone(), CACHED, Arc::default()));
-        assert!(cancel.load(Ordering::Relaxed));
+        let unit = StandIn::new(1, 0, None);
+        drop(queue(&pool, unit.clone(), CACHED, Arc::default()));
+        assert!(unit.canceled.load(Ordering::Relaxed));
     }
 }

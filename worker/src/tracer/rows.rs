@@ -28,7 +28,7 @@ pub struct RowQueue {
     tile: Tile,
     samples: Range<u32>,
     plan: UnitPlan,
-    cancel: Arc<AtomicBool>,
+    canceled: AtomicBool,
     /// The next row to claim; past the tile's height once all are claimed.
     next_row: AtomicU32,
     /// Rows not finished yet (claimed or not).
@@ -38,9 +38,8 @@ pub struct RowQueue {
 
 impl RowQueue {
     /// A unit ready to be worked on; errors as [`render_tile`](super::render_tile) does for a
-    /// tile outside the image or an unknown camera. Setting `cancel` makes the remaining rows
-    /// end at once (their pixels left empty) and [`RowQueue::take`] answer None.
-    pub fn new(scene: Arc<Scene>, settings: RenderSettings, tile: Tile, samples: Range<u32>, cancel: Arc<AtomicBool>) -> Result<RowQueue, String> {
+    /// tile outside the image or an unknown camera.
+    pub fn new(scene: Arc<Scene>, settings: RenderSettings, tile: Tile, samples: Range<u32>) -> Result<RowQueue, String> {
         let plan = UnitPlan::new(&scene, &settings, tile, None)?;
         Ok(RowQueue {
             scene,
@@ -48,7 +47,7 @@ impl RowQueue {
             tile,
             samples,
             plan,
-            cancel,
+            canceled: AtomicBool::new(false),
             next_row: AtomicU32::new(0),
             rows_left: AtomicU32::new(tile.h),
             out: Mutex::new(TileSums::new(tile)),
@@ -65,7 +64,7 @@ impl RowQueue {
         let mut row_buf = vec![PixelSums::default(); self.tile.w as usize];
         loop {
             let finishing = RowFinishing(&self.rows_left);
-            if !self.cancel.load(Ordering::Relaxed) {
+            if !self.canceled.load(Ordering::Relaxed) {
                 row_buf.fill(PixelSums::default());
                 let stats = self.render_row(&integrator, row, &mut row_buf);
                 self.store_row(row, &row_buf, stats);
@@ -78,6 +77,12 @@ impl RowQueue {
         }
     }
 
+    /// Makes the remaining rows end at once (their pixels left empty) and [`RowQueue::take`]
+    /// answer None; callable from any thread, at any time.
+    pub fn cancel(&self) {
+        self.canceled.store(true, Ordering::Relaxed);
+    }
+
     /// The next unclaimed row, if any.
     fn claim(&self) -> Option<u32> {
         Some(self.next_row.fetch_add(1, Ordering::Relaxed)).filter(|&row| row < self.tile.h)
@@ -85,7 +90,7 @@ impl RowQueue {
 
     /// The unit's sums once [`RowQueue::work`] has answered true; None if it was canceled.
     pub fn take(&self) -> Option<TileSums> {
-        if self.cancel.load(Ordering::Relaxed) {
+        if self.canceled.load(Ordering::Relaxed) {
             return None;
         }
         let mut out = self.out.lock().unwrap_or_else(PoisonError::into_inner);

@@ -14,14 +14,14 @@ fn cornell() -> (Arc<Scene>, RenderSettings) {
 
 const TILE: Tile = Tile { x0: 8, y0: 4, w: 24, h: 20 };
 
-fn queue(scene: &Arc<Scene>, settings: &RenderSettings, cancel: &Arc<AtomicBool>) -> RowQueue {
-    RowQueue::new(scene.clone(), settings.clone(), TILE, 3..7, cancel.clone()).expect("valid unit")
+fn queue(scene: &Arc<Scene>, settings: &RenderSettings) -> RowQueue {
+    RowQueue::new(scene.clone(), settings.clone(), TILE, 3..7).expect("valid unit")
 }
 
 #[test]
 fn one_thread_finishes_the_unit_and_its_sums_are_render_tiles() {
     let (scene, settings) = cornell();
-    let q = queue(&scene, &settings, &Arc::new(AtomicBool::new(false)));
+    let q = queue(&scene, &settings);
     assert!(q.work(), "the only worker finishes the last row");
     assert!(!q.work(), "nothing left to finish");
     let expected = render_tile(&scene, &settings, TILE, 3..7).unwrap();
@@ -34,7 +34,7 @@ fn many_threads_give_the_same_bits_and_exactly_one_finishes() {
     let (scene, settings) = cornell();
     let expected = render_tile(&scene, &settings, TILE, 3..7).unwrap();
     for threads in [2, 3, 7] {
-        let q = queue(&scene, &settings, &Arc::new(AtomicBool::new(false)));
+        let q = queue(&scene, &settings);
         let finishers: usize = std::thread::scope(|s| {
             let handles: Vec<_> = (0..threads).map(|_| s.spawn(|| q.work())).collect();
             handles.into_iter().map(|h| usize::from(h.join().unwrap())).sum()
@@ -47,8 +47,8 @@ fn many_threads_give_the_same_bits_and_exactly_one_finishes() {
 #[test]
 fn a_canceled_unit_still_finishes_and_yields_nothing() {
     let (scene, settings) = cornell();
-    let cancel = Arc::new(AtomicBool::new(true));
-    let q = queue(&scene, &settings, &cancel);
+    let q = queue(&scene, &settings);
+    q.cancel();
     assert!(q.work(), "the remaining rows end at once, and the last one reports the end");
     assert_eq!(q.take(), None);
 }
@@ -69,6 +69,6 @@ fn a_row_that_panics_still_counts_as_finished() {
 fn a_tile_outside_the_image_is_refused() {
     let (scene, settings) = cornell();
     let tile = Tile { x0: 30, y0: 0, w: 20, h: 4 };
-    let err = RowQueue::new(scene, settings, tile, 0..1, Arc::new(AtomicBool::new(false))).err().expect("refused");
+    let err = RowQueue::new(scene, settings, tile, 0..1).err().expect("refused");
     assert!(err.contains("exceeds the 40×40 image"), "{err}");
 }
