@@ -16,7 +16,6 @@ use super::cpu::{cpu_seconds, cpu_since, threads_cpu};
 use crate::bundled;
 use crate::local::{LocalFarm, with_farm_reports};
 use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 use tessera_proto::JobRequest;
 use tessera_worker::client::render_settings;
@@ -58,7 +57,8 @@ struct FarmRun {
     total: f64,
     /// The worker's pool rendering (its report).
     busy: f64,
-    /// Units the worker rendered, and those its prefetch had queued on the pool in advance.
+    /// Units the worker took on (merged, stale or canceled), and those its prefetch had queued
+    /// on the pool in advance.
     units: u64,
     queued_ahead: u64,
     /// CPU seconds of the whole process (every thread: coordinator, worker, client).
@@ -227,8 +227,7 @@ fn alone_run(scene: &Arc<Scene>, settings: &RenderSettings, b: &OverheadBench) -
             for x0 in (0..size).step_by(TILE as usize) {
                 let tile = Tile { x0, y0, w: TILE.min(size - x0), h: TILE.min(size - y0) };
                 let samples = k * batch..((k + 1) * batch).min(spp);
-                let never = Arc::new(AtomicBool::new(false));
-                units.push(RowQueue::new(scene.clone(), settings.clone(), tile, samples, never).map_err(anyhow::Error::msg)?);
+                units.push(RowQueue::new(scene.clone(), settings.clone(), tile, samples).map_err(anyhow::Error::msg)?);
             }
         }
     }
