@@ -126,10 +126,17 @@ impl PartialSums {
             return err("largest path weight is not a finite number ≥ 0");
         }
         let per_pixel = (samples[1] - samples[0]) as u64;
-        let pixels: Vec<WirePixel> = bytes[HEADER_LEN..].chunks_exact(PIXEL_LEN).map(wire_pixel).collect();
-        // Checked in one branch-free pass (a result is hundreds of kilobytes and the coordinator
-        // decodes thousands a second); only a bad body is searched for its first bad pixel.
-        let all_valid = pixels.iter().fold(true, |ok, p| ok & valid(p, per_pixel));
+        // Checked branch-free as the pixels are read (a result is hundreds of kilobytes and the
+        // coordinator decodes thousands a second); only a bad body is searched for its first bad pixel.
+        let mut all_valid = true;
+        let pixels: Vec<WirePixel> = bytes[HEADER_LEN..]
+            .chunks_exact(PIXEL_LEN)
+            .map(|b| {
+                let p = wire_pixel(b);
+                all_valid &= valid(&p, per_pixel);
+                p
+            })
+            .collect();
         if !all_valid {
             let (i, p) = pixels.iter().enumerate().find(|(_, p)| !valid(p, per_pixel)).expect("a pixel is invalid");
             return err(match p.count > per_pixel {
