@@ -72,6 +72,10 @@ enum Cmd {
         workers: usize,
         #[arg(long, default_value_t = 64)]
         tile: u32,
+        /// Ask for each lease with its own request, as workers did before results could carry
+        /// the next lease (two requests per unit instead of one).
+        #[arg(long)]
+        separate_leases: bool,
     },
 }
 
@@ -87,7 +91,7 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 fn main() -> anyhow::Result<()> {
     match Cli::parse().cmd {
         Cmd::Overhead(b) => tessera_server::bench::overhead::run(&b),
-        Cmd::Roundtrips { seconds, workers, tile } => roundtrips(seconds, workers, tile),
+        Cmd::Roundtrips { seconds, workers, tile, separate_leases } => roundtrips(seconds, workers, tile, !separate_leases),
         Cmd::Effects { scene, size, spp, repeats } => effects(&scene, size, spp, repeats),
         Cmd::Accuracy(options) => tessera_server::bench::accuracy::run(options).map(|_| ()),
         Cmd::Frames(b) => tessera_server::bench::frames::run(&b),
@@ -119,7 +123,7 @@ fn effects(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Resul
     Ok(())
 }
 
-fn roundtrips(seconds: f64, workers: usize, tile: u32) -> anyhow::Result<()> {
+fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool) -> anyhow::Result<()> {
     let data = std::env::temp_dir().join(format!("tessera-bench-rt-{}", std::process::id()));
     let state = tessera_server::state::AppState::new(tessera_server::state::Config::new(data.clone()))?;
     let std_listener = std::net::TcpListener::bind("127.0.0.1:0")?;
@@ -153,7 +157,7 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32) -> anyhow::Result<()> {
         let tasks: Vec<_> = (0..workers)
             .map(|i| {
                 let (http, url, template) = (http.clone(), url.clone(), template.clone());
-                tokio::spawn(async move { fake_worker(i, http, url, template, deadline).await })
+                tokio::spawn(async move { fake_worker(i, http, url, template, deadline, next_with_result).await })
             })
             .collect();
         let mut total = 0u64;
@@ -163,7 +167,8 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32) -> anyhow::Result<()> {
         anyhow::Ok((total, start.elapsed().as_secs_f64()))
     })?;
     let merge_ns = state.counters.merge_nanos.load(std::sync::atomic::Ordering::Relaxed) as f64;
-    println!("roundtrips: {workers} fake workers, {tile}x{tile} tiles, 1 spp units, coordinator on one core");
+    let leases = if next_with_result { "the next lease in each result's answer" } else { "a lease request per unit" };
+    println!("roundtrips: {workers} fake workers, {tile}x{tile} tiles, 1 spp units, {leases}, coordinator on one core");
     println!("  {units} units in {elapsed:.2} s = {:.0} unit round trips/s", units as f64 / elapsed);
     println!("  merge cost {:.1} µs per unit (decode excluded)", merge_ns / units.max(1) as f64 / 1000.0);
     let _ = std::fs::remove_dir_all(&data);
@@ -171,23 +176,35 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32) -> anyhow::Result<()> {
 }
 
 /// Leases units and returns ready-made results for them until the deadline; returns units merged.
-async fn fake_worker(i: usize, http: reqwest::Client, url: String, template: Vec<u8>, deadline: Instant) -> anyhow::Result<u64> {
+/// With `next_with_result`, each result asks for the next lease, as workers do.
+async fn fake_worker(i: usize, http: reqwest::Client, url: String, template: Vec<u8>, deadline: Instant, next_with_result: bool) -> anyhow::Result<u64> {
     let reg: tessera_proto::Registration =
         http.post(format!("{url}/v1/workers")).json(&tessera_proto::WorkerHello { name: format!("fake{i}"), threads: 1 }).send().await?.json().await?;
     let mut done = 0;
+    let mut next: Option<tessera_proto::Lease> = None;
     while Instant::now() < deadline {
-        let resp = http.post(format!("{url}/v1/leases")).json(&tessera_proto::LeaseRequest { worker_id: reg.worker_id.clone() }).send().await?;
-        if resp.status() == reqwest::StatusCode::NO_CONTENT {
-            continue;
-        }
-        let lease: tessera_proto::Lease = resp.json().await?;
+        let lease = match next.take() {
+            Some(l) => l,
+            None => {
+                let resp = http.post(format!("{url}/v1/leases")).json(&tessera_proto::LeaseRequest { worker_id: reg.worker_id.clone() }).send().await?;
+                if resp.status() == reqwest::StatusCode::NO_CONTENT {
+                    continue;
+                }
+                resp.json().await?
+            }
+        };
         let mut body = template.clone();
         body[8..12].copy_from_slice(&lease.tile.x0.to_le_bytes());
         body[12..16].copy_from_slice(&lease.tile.y0.to_le_bytes());
         body[24..28].copy_from_slice(&lease.samples[0].to_le_bytes());
         body[28..32].copy_from_slice(&lease.samples[1].to_le_bytes());
-        let r = http.put(format!("{url}/v1/leases/{}/result", lease.lease_id)).header("content-type", tessera_proto::sums::CONTENT_TYPE).body(body).send().await?;
-        anyhow::ensure!(r.status() == reqwest::StatusCode::NO_CONTENT, "result refused: {}", r.text().await?);
+        let query = if next_with_result { "?next=true" } else { "" };
+        let r = http.put(format!("{url}/v1/leases/{}/result{query}", lease.lease_id)).header("content-type", tessera_proto::sums::CONTENT_TYPE).body(body).send().await?;
+        match r.status() {
+            reqwest::StatusCode::NO_CONTENT => {}
+            reqwest::StatusCode::OK => next = Some(r.json().await?),
+            _ => anyhow::bail!("result refused: {}", r.text().await?),
+        }
         done += 1;
     }
     Ok(done)

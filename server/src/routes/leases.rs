@@ -59,6 +59,13 @@ pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<WorkerInfo>> {
 }
 
 #[derive(serde::Deserialize, utoipa::IntoParams)]
+pub struct ResultQuery {
+    /// Also lease the worker its next unit (no long poll): a merged result is then answered 200
+    /// with the lease, or 204 when there is no work now.
+    next: Option<bool>,
+}
+
+#[derive(serde::Deserialize, utoipa::IntoParams)]
 pub struct LeaseQuery {
     /// Long poll: wait up to this many milliseconds (at most 5000) for work before answering 204.
     wait_ms: Option<u64>,
@@ -112,11 +119,13 @@ pub async fn release(State(st): State<AppState>, Path(id): Path<String>) -> Resu
     }
 }
 
-/// Return a unit's partial sums (binary, `application/x-tessera-sums`).
-#[utoipa::path(put, path = "/v1/leases/{id}/result", tag = "workers", params(("id" = String, Path)),
+/// Return a unit's partial sums (binary, `application/x-tessera-sums`); with `next=true`, also
+/// take the next unit, saving the worker a lease request per unit.
+#[utoipa::path(put, path = "/v1/leases/{id}/result", tag = "workers", params(("id" = String, Path), ResultQuery),
     request_body(content = Vec<u8>, content_type = "application/x-tessera-sums"),
-    responses((status = 204, description = "merged"), (status = 409, body = Problem), (status = 415, body = Problem), (status = 422, body = Problem)))]
-pub async fn result(State(st): State<AppState>, Path(id): Path<String>, headers: HeaderMap, body: Bytes) -> Result<StatusCode, AppError> {
+    responses((status = 200, body = Lease, description = "merged, and the worker's next unit (`next=true`)"),
+        (status = 204, description = "merged (and, with `next=true`, no work now)"), (status = 409, body = Problem), (status = 415, body = Problem), (status = 422, body = Problem)))]
+pub async fn result(State(st): State<AppState>, Path(id): Path<String>, Query(q): Query<ResultQuery>, headers: HeaderMap, body: Bytes) -> Result<Response, AppError> {
     // A body sent as something else (JSON, text) is a client bug, not a bad unit: say so and
     // leave the lease alone.
     let ct = headers.get(header::CONTENT_TYPE).map(|v| v.to_str().unwrap_or("?").split(';').next().unwrap_or("").trim());
@@ -132,15 +141,19 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, headers:
             return Err(AppError::new(StatusCode::UNPROCESSABLE_ENTITY, format!("malformed result: {e}")));
         }
     };
-    let t0 = std::time::Instant::now();
-    let outcome = {
+    let (outcome, next) = {
         let mut sched = st.scheduler.lock().expect("lock");
         if let Some((kind, ms)) = prepare_report(&headers) {
             sched.note_prepare(&id, kind, ms);
         }
-        sched.complete(&id, sums, st.now())
+        let holder = q.next.unwrap_or(false).then(|| sched.holder(&id).map(str::to_owned)).flatten();
+        let t0 = std::time::Instant::now();
+        let outcome = sched.complete(&id, sums, st.now());
+        st.counters.merge_nanos.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
+        // The worker's next unit in the same answer: one request per unit instead of two.
+        let next = holder.filter(|_| outcome.is_ok()).and_then(|w| sched.lease(&w, st.now()).ok().flatten());
+        (outcome, next)
     };
-    st.counters.merge_nanos.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
     st.0.settle().await;
     match outcome {
         Ok(Accepted { job_id, merged, job_finished }) => {
@@ -152,7 +165,14 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, headers:
                 let st2 = st.clone();
                 tokio::task::spawn_blocking(move || st2.finalize(&job_id)).await.map_err(AppError::internal)?;
             }
-            Ok(StatusCode::NO_CONTENT)
+            Ok(match next {
+                Some(g) => {
+                    st.counters.leases_granted.fetch_add(1, Ordering::Relaxed);
+                    st.notify(&g.job_id);
+                    axum::Json(g).into_response()
+                }
+                None => StatusCode::NO_CONTENT.into_response(),
+            })
         }
         Err(ResultError::Stale(m)) => {
             st.counters.results_stale.fetch_add(1, Ordering::Relaxed);

@@ -33,3 +33,5 @@ mod tests_scenes;
 mod tests_service;
 #[cfg(test)]
 mod tests_workers;
+#[cfg(test)]
+mod tests_carried;

@@ -271,6 +271,11 @@ impl Scheduler {
         }
     }
 
+    /// The worker holding lease `lease_id`, if it is active.
+    pub fn holder(&self, lease_id: &str) -> Option<&str> {
+        self.leases.get(lease_id).map(|l| l.worker.as_str())
+    }
+
     pub fn complete(&mut self, lease_id: &str, sums: PartialSums, now: u64) -> Result<Accepted, ResultError> {
         self.tick(now);
         let l = self.leases.remove(lease_id).ok_or_else(|| ResultError::Stale(format!("lease {lease_id} is not active (expired, revoked or already completed)")))?;

@@ -40,7 +40,8 @@ pub(crate) enum HeartbeatAnswer {
 }
 
 pub(crate) enum UploadAnswer {
-    Merged,
+    /// Merged; with the worker's next unit when it asked for one and there was work (200).
+    Merged(Option<Box<Lease>>),
     /// 409 (late or duplicate) or 404 (the lease is unknown): ignored by the coordinator.
     Stale,
     /// 422, with the coordinator's explanation.
@@ -139,9 +140,11 @@ impl Api {
     }
 
     /// Uploads a unit's sums, saying how its scene was prepared (`x-tessera-prepare`: cached,
-    /// build or refit; `x-tessera-prepare-ms`: milliseconds, 0 when cached).
-    pub(crate) async fn upload(&self, lease_id: &str, body: bytes::Bytes, prepared: Prepared) -> Result<UploadAnswer, CallError> {
-        let path = format!("/v1/leases/{}/result", segment(lease_id));
+    /// build or refit; `x-tessera-prepare-ms`: milliseconds, 0 when cached). With `next`, the
+    /// answer also leases the worker its next unit (`?next=true`).
+    pub(crate) async fn upload(&self, lease_id: &str, body: bytes::Bytes, prepared: Prepared, next: bool) -> Result<UploadAnswer, CallError> {
+        let query = if next { "?next=true" } else { "" };
+        let path = format!("/v1/leases/{}/result{query}", segment(lease_id));
         let rb = self
             .request(Method::PUT, &path, UPLOAD_TIMEOUT)
             .header(reqwest::header::CONTENT_TYPE, tessera_proto::sums::CONTENT_TYPE)
@@ -150,7 +153,16 @@ impl Api {
             .body(body);
         let resp = send(rb, "result upload").await?;
         match resp.status() {
-            StatusCode::NO_CONTENT | StatusCode::OK => Ok(UploadAnswer::Merged),
+            StatusCode::NO_CONTENT => Ok(UploadAnswer::Merged(None)),
+            StatusCode::OK if !next => Ok(UploadAnswer::Merged(None)),
+            // Merged whatever the lease's body holds: a retry would only be told the result is stale.
+            StatusCode::OK => match json(resp, "result upload", |b| serde_json::from_slice::<Lease>(b)).await {
+                Ok(lease) => Ok(UploadAnswer::Merged(Some(Box::new(lease)))),
+                Err(e) => {
+                    tracing::warn!(lease = lease_id, "result merged, but the next lease in its answer is unreadable ({e}); it will expire");
+                    Ok(UploadAnswer::Merged(None))
+                }
+            },
             StatusCode::CONFLICT | StatusCode::NOT_FOUND | StatusCode::GONE => Ok(UploadAnswer::Stale),
             StatusCode::UNPROCESSABLE_ENTITY => Ok(UploadAnswer::Malformed(detail(resp).await)),
             _ => Err(unexpected(resp, "result upload").await),

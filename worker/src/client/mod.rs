@@ -2,9 +2,10 @@
 //!
 //! ```text
 //! register ──► lease ──► scene (cached) ──► render on the pool ──► upload (in the background)
-//!    ▲          │  ▲                                │                 at most one in flight
-//!    └── 404 ───┘  └──── prefetch: the next lease ◄─┘ asked for as the unit starts, its unit
-//!                        queued on the pool behind it, held (heartbeated) until it ends
+//!    ▲          │  ▲                                │                 at most one in flight;
+//!    └── 404 ───┘  └──── prefetch: the next lease ◄─┘ its answer carries the lease after next
+//!                        (from the last upload's answer, else asked for) as the unit starts,
+//!                        its unit queued on the pool behind it, held (heartbeated) until it ends
 //!  204 (no work): poll again after a short backoff
 //!  heartbeats every heartbeat_ms/3 (≤ 1 s) for each lease held, rendering or prefetched;
 //!  409 drops it (a rendering unit is canceled)
@@ -15,6 +16,7 @@
 //! - `api`: one function per endpoint, answers sorted into what the loop acts on.
 //! - `prefetch`: the next lease, requested, its unit queued and kept alive in the background
 //!   while a unit renders.
+//! - `upload`: result uploads in the background, and the next lease their answers carry.
 //! - `queue`: units on the render pool (a `RowQueue` worked by one job per pool thread).
 //! - `retry`: backoff with jitter, the shutdown signal, retry-until-done.
 //! - `cache`: parsed scene files by id and the last few frame scenes (with their BVHs).
@@ -30,7 +32,8 @@
 //!   refusal that retrying cannot fix (e.g. 401 for a wrong token) ends [`run`] with an error.
 //! - A lease that cannot be worked (scene missing or broken, bad parameters) is given back with
 //!   `DELETE` and the worker carries on.
-//! - Prefetch: as soon as a unit is leased, the next lease is requested in the background and,
+//! - Prefetch: as soon as a unit is leased, the next lease is taken in the background (the
+//!   one the last result's answer carried, else by a lease request) and,
 //!   once the unit in hand is queued, the next one is queued behind it, so the pool goes
 //!   straight from one unit's last rows to the next one's first (no lease round trip, no
 //!   hand-over in between). A worker holds at most two leases: the unit in hand and one
@@ -50,22 +53,25 @@ mod queue;
 mod retry;
 #[cfg(test)]
 mod tests;
+mod upload;
 
 pub use convert::{render_settings, to_wire};
 
 use crate::tracer::{RowQueue, TileSums};
 use anyhow::{Context, anyhow};
-use api::{Api, CallError, HeartbeatAnswer, LeaseAnswer, UploadAnswer};
+use api::{Api, CallError, HeartbeatAnswer, LeaseAnswer};
 use cache::SceneCache;
 use prefetch::Prefetch;
 use prepare::Prepared;
 use queue::Queued;
+use upload::{Uploaded, finish_upload, from_upload_answer, give_back_carried, upload};
 use retry::{Backoff, RETRY, Retried, Stop, until_done};
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tessera_proto::{Lease, Registration, WorkerHello};
+use tokio::sync::oneshot;
 use tokio::task::JoinHandle;
 use tracing::{debug, error, info, warn};
 
@@ -96,6 +102,8 @@ pub struct WorkerReport {
     /// Units that were already queued on the pool, behind the unit before them, when their
     /// turn came (the prefetch queued them): the pool went straight from one to the other.
     pub units_queued_ahead: u64,
+    /// Results whose answer carried the worker's next lease (one request instead of two).
+    pub leases_with_results: u64,
     /// Time the render pool spent rendering units (canceled ones included), as the mean over its
     /// threads of each one's time on units' rows: against the worker's wall time, what it spent
     /// waiting for leases, scenes and the coordinator.
@@ -104,8 +112,6 @@ pub struct WorkerReport {
 
 /// How long the unit in hand may still take once shutdown is requested.
 pub const SHUTDOWN_GRACE: Duration = Duration::from_secs(2);
-/// How long a result upload still in flight at shutdown may take.
-const SHUTDOWN_UPLOAD_WAIT: Duration = Duration::from_secs(5);
 /// How long a lease request in flight at shutdown may still answer: not at all. It is dropped,
 /// and a lease the coordinator granted to it meanwhile goes back to the queue when the worker
 /// deregisters on its way out (`DELETE /v1/workers/{id}`), instead of waiting to expire.
@@ -157,17 +163,13 @@ struct Carry {
     uploading: Option<JoinHandle<Uploaded>>,
     /// The next lease, fetched while the unit in hand renders (at most one).
     prefetch: Option<Prefetch>,
+    /// Where the last upload puts the lease its answer carries (for the next prefetch, or the
+    /// loop's next lease when no prefetch is running).
+    next_lease: Option<oneshot::Receiver<Box<Lease>>>,
     /// This worker's id with the coordinator, once registered: deregistered at the end.
     worker_id: Option<String>,
 }
 
-/// How an upload ended.
-enum Uploaded {
-    Merged,
-    Stale,
-    /// Refused as malformed or for another reason retrying cannot fix (logged as an error).
-    Refused,
-}
 
 struct Worker {
     name: String,
@@ -199,7 +201,10 @@ impl Worker {
         info!(coordinator = self.api.base(), threads = self.pool.current_num_threads(), name = %self.name, "worker starting");
         let mut carry = Carry::default();
         let result = self.serve(&stop, &mut carry).await;
-        let Carry { mut report, uploading, prefetch, worker_id } = carry;
+        let Carry { mut report, uploading, prefetch, worker_id, next_lease } = carry;
+        if let Some(answer) = next_lease {
+            give_back_carried(&self.api, answer).await;
+        }
         if let Some(p) = prefetch {
             self.give_back(p, &mut report).await;
         }
@@ -258,18 +263,22 @@ impl Worker {
             // animation's next frame is refitted from this one).
             carry.report.units_queued_ahead += u64::from(queued.is_some());
             let (scene_ready, after) = tokio::sync::oneshot::channel();
-            carry.prefetch = Some(Prefetch::start(self.clone(), worker_id.to_owned(), heartbeat_every(&reg), stop.clone(), after));
+            let from_upload = carry.next_lease.take();
+            carry.prefetch = Some(Prefetch::start(self.clone(), worker_id.to_owned(), heartbeat_every(&reg), stop.clone(), after, from_upload));
             match self.run_unit(&lease, queued, scene_ready, heartbeat_every(&reg), stop).await {
                 Unit::Rendered { sums, deadline, prepared } => {
                     idle.reset();
                     if let Some(previous) = carry.uploading.take() {
                         finish_upload(previous, stop, &mut carry.report).await;
                     }
-                    // Encoded in the upload's task, so the pool starts the next unit meanwhile.
+                    // Encoded in the upload's task, so the pool starts the next unit meanwhile. Its
+                    // answer brings the lease after the prefetched one.
                     let (api, lease_id, samples) = (self.api.clone(), lease.lease_id.clone(), lease.samples);
+                    let (next_tx, next_rx) = oneshot::channel();
+                    carry.next_lease = Some(next_rx);
                     carry.uploading = Some(tokio::spawn(async move {
                         let body = bytes::Bytes::from(to_wire(&sums, samples).encode());
-                        upload(api, lease_id, body, prepared, deadline).await
+                        upload(api, lease_id, body, prepared, deadline, next_tx).await
                     }));
                 }
                 Unit::Canceled => {
@@ -291,12 +300,20 @@ impl Worker {
     }
 
     /// The prefetched lease (or the answer of the prefetch's request) with its unit when the
-    /// prefetch queued it, else a lease request now.
+    /// prefetch queued it, else the lease the last upload's answer carried, else a lease
+    /// request now.
     async fn next_lease(&self, worker_id: &str, stop: &Stop, carry: &mut Carry) -> (Retried<LeaseAnswer>, Option<Queued>) {
         if let Some(p) = carry.prefetch.take()
             && let Some(fetched) = p.take(&mut carry.report.units_canceled).await
         {
             return fetched;
+        }
+        if let Some(from_upload) = carry.next_lease.take() {
+            match from_upload_answer(&self.api, from_upload, stop).await {
+                Retried::Done(Some(lease)) => return (Retried::Done(LeaseAnswer::Lease(lease)), None),
+                Retried::Done(None) => {}
+                _ => return (Retried::Stopped(None), None),
+            }
         }
         (until_done("lease request", stop, LEASE_DRAIN, || self.api.lease(worker_id)).await, None)
     }
@@ -493,65 +510,3 @@ fn check_unit(lease: &Lease) -> Result<crate::tracer::RenderSettings, String> {
     Ok(settings)
 }
 
-/// Uploads one unit's sums, retrying transient failures until the lease's deadline passes (by
-/// then the coordinator has re-issued the unit, and a late result would be stale anyway).
-async fn upload(api: Arc<Api>, lease_id: String, body: bytes::Bytes, prepared: Prepared, deadline: Instant) -> Uploaded {
-    let id = lease_id.as_str();
-    let mut backoff = RETRY;
-    let mut failures = 0u32;
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        let error = match tokio::time::timeout(left, api.upload(id, body.clone(), prepared)).await {
-            Ok(Ok(UploadAnswer::Merged)) => {
-                debug!(lease = id, bytes = body.len(), "result merged");
-                return Uploaded::Merged;
-            }
-            Ok(Ok(UploadAnswer::Stale)) => {
-                info!(lease = id, "result was stale (the coordinator had given the unit up)");
-                return Uploaded::Stale;
-            }
-            Ok(Ok(UploadAnswer::Malformed(detail))) => {
-                error!(lease = id, "the coordinator refused the result as malformed: {detail}");
-                return Uploaded::Refused;
-            }
-            Ok(Err(CallError::Fatal(e))) => {
-                error!(lease = id, "{e}");
-                return Uploaded::Refused;
-            }
-            Ok(Err(CallError::Transient(e))) => e,
-            Err(_) => "no answer".to_owned(),
-        };
-        failures += 1;
-        let now = Instant::now();
-        if now >= deadline {
-            warn!(lease = id, attempts = failures, "result upload failed ({error}) and the lease's deadline has passed: giving up");
-            return Uploaded::Stale;
-        }
-        let delay = backoff.next_delay().min(deadline - now);
-        warn!(lease = id, attempt = failures, retry_in_ms = delay.as_millis() as u64, "{error}");
-        tokio::time::sleep(delay).await;
-    }
-}
-
-/// Waits for an upload and counts its outcome. Once shutdown is requested it gets at most
-/// [`SHUTDOWN_UPLOAD_WAIT`] more, then is abandoned.
-async fn finish_upload(mut handle: JoinHandle<Uploaded>, stop: &Stop, report: &mut WorkerReport) {
-    let joined = tokio::select! {
-        joined = &mut handle => joined,
-        () = stop.wait() => match tokio::time::timeout(SHUTDOWN_UPLOAD_WAIT, &mut handle).await {
-            Ok(joined) => joined,
-            Err(_) => {
-                handle.abort();
-                warn!("a result upload was still unfinished at shutdown: abandoned");
-                report.units_stale += 1;
-                return;
-            }
-        },
-    };
-    match joined {
-        Ok(Uploaded::Merged) => report.units_done += 1,
-        Ok(Uploaded::Stale) => report.units_stale += 1,
-        Ok(Uploaded::Refused) => {}
-        Err(e) => error!("the upload task failed: {e}"),
-    }
-}

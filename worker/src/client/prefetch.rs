@@ -2,8 +2,9 @@
 //! pool behind the one rendering, so the pool goes straight from one unit to the next instead
 //! of idling for a lease round trip and a hand-over in between.
 //!
-//! A [`Prefetch`] is a background task that asks for one lease (polling again after 204 while
-//! the unit in hand renders), prepares its scene and queues its unit (`Worker::queue_unit`),
+//! A [`Prefetch`] is a background task that takes the lease the previous unit's result answer
+//! carried or, without one, asks for one lease (polling again after 204 while the unit in hand
+//! renders), prepares its scene and queues its unit (`Worker::queue_unit`),
 //! then holds the lease under heartbeats until the loop takes it. A held lease that is lost (409
 //! on heartbeat, deadline passed) is dropped, its unit canceled, and another one asked for. On
 //! shutdown a held lease is given back (`DELETE`) and its unit canceled. There is never more than
@@ -11,7 +12,7 @@
 use super::api::LeaseAnswer;
 use super::queue::Queued;
 use super::retry::{Retried, Stop, until_done};
-use super::{IDLE, LEASE_DRAIN, Worker, keep_alive, release};
+use super::{IDLE, LEASE_DRAIN, Worker, from_upload_answer, keep_alive, release};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tessera_proto::Lease;
@@ -35,10 +36,12 @@ pub(super) struct Prefetch {
 
 impl Prefetch {
     /// Starts fetching a lease for `worker_id`; a held lease is heartbeated every `every`.
-    /// Its unit's scene is prepared only once `after` resolves (or its sender is dropped).
-    pub(super) fn start(worker: Arc<Worker>, worker_id: String, every: Duration, stop: Stop, after: oneshot::Receiver<()>) -> Prefetch {
+    /// Its unit's scene is prepared only once `after` resolves (or its sender is dropped). With
+    /// `from_upload`, the lease the previous unit's result answer carries is taken first, and
+    /// only without one is a lease requested.
+    pub(super) fn start(worker: Arc<Worker>, worker_id: String, every: Duration, stop: Stop, after: oneshot::Receiver<()>, from_upload: Option<oneshot::Receiver<Box<Lease>>>) -> Prefetch {
         let (take, taken) = oneshot::channel();
-        let task = tokio::spawn(fetch(worker, worker_id, every, stop, taken, after));
+        let task = tokio::spawn(fetch(worker, worker_id, every, stop, taken, after, from_upload));
         Prefetch { take, task }
     }
 
@@ -62,13 +65,31 @@ impl Prefetch {
     }
 }
 
-async fn fetch(worker: Arc<Worker>, worker_id: String, every: Duration, stop: Stop, mut taken: oneshot::Receiver<()>, after: oneshot::Receiver<()>) -> Fetched {
+async fn fetch(
+    worker: Arc<Worker>,
+    worker_id: String,
+    every: Duration,
+    stop: Stop,
+    mut taken: oneshot::Receiver<()>,
+    after: oneshot::Receiver<()>,
+    from_upload: Option<oneshot::Receiver<Box<Lease>>>,
+) -> Fetched {
     let mut after = Some(after);
     let mut idle = IDLE;
     let mut dropped = 0;
     let api = &worker.api;
+    let mut carried = match from_upload {
+        Some(answer) => match from_upload_answer(api, answer, &stop).await {
+            Retried::Done(lease) => lease,
+            _ => return Fetched { answer: Some((Retried::Stopped(None), None)), dropped },
+        },
+        None => None,
+    };
     loop {
-        let answer = until_done("lease request (prefetch)", &stop, LEASE_DRAIN, || api.lease(&worker_id)).await;
+        let answer = match carried.take() {
+            Some(lease) => Retried::Done(LeaseAnswer::Lease(lease)),
+            None => until_done("lease request (prefetch)", &stop, LEASE_DRAIN, || api.lease(&worker_id)).await,
+        };
         let lease = match answer {
             Retried::Done(LeaseAnswer::Lease(lease)) => lease,
             Retried::Done(LeaseAnswer::NoWork) => {

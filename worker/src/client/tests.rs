@@ -2,7 +2,7 @@
 //! furnace scene, hands out a scripted sequence of answers and records what the worker sends.
 use super::*;
 use crate::tracer::render_tile;
-use axum::extract::{Path, Request, State};
+use axum::extract::{Path, RawQuery, Request, State};
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
@@ -59,6 +59,11 @@ struct Log {
     unauthorized: u32,
     /// (lease id, x-tessera-prepare, x-tessera-prepare-ms) of every result upload.
     prepared: Vec<(String, String, f64)>,
+    /// Answer a merged result that asks for the next lease (`?next=true`) with the script's next
+    /// step, as the coordinator does; otherwise such results are answered 204 (no work now).
+    leases_with_results: bool,
+    /// Leases handed out in a result's answer.
+    carried: Vec<String>,
 }
 
 struct Mock {
@@ -128,7 +133,7 @@ async fn heartbeat(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Res
     Json(Heartbeat { deadline_ms: 30_000 }).into_response()
 }
 
-async fn result(State(mock): State<Arc<Mock>>, Path(id): Path<String>, headers: HeaderMap, body: axum::body::Bytes) -> Response {
+async fn result(State(mock): State<Arc<Mock>>, Path(id): Path<String>, RawQuery(query): RawQuery, headers: HeaderMap, body: axum::body::Bytes) -> Response {
     let content_type = headers.get(header::CONTENT_TYPE).and_then(|v| v.to_str().ok()).unwrap_or("").to_owned();
     let slow = {
         let mut log = mock.log();
@@ -148,10 +153,20 @@ async fn result(State(mock): State<Arc<Mock>>, Path(id): Path<String>, headers: 
             return problem(StatusCode::SERVICE_UNAVAILABLE, "try again");
         }
     }
-    if mock.log().stale_results.contains(&id) {
+    let mut log = mock.log();
+    if log.stale_results.contains(&id) {
         return problem(StatusCode::CONFLICT, "stale");
     }
-    StatusCode::NO_CONTENT.into_response()
+    if query.as_deref() != Some("next=true") || !log.leases_with_results {
+        return StatusCode::NO_CONTENT.into_response();
+    }
+    match log.script.pop_front() {
+        Some(Step::Lease(l)) => {
+            log.carried.push(l.lease_id.clone());
+            Json(*l).into_response()
+        }
+        _ => StatusCode::NO_CONTENT.into_response(),
+    }
 }
 
 async fn release(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
@@ -310,7 +325,7 @@ async fn renders_every_lease_bit_exactly_with_one_scene_download() {
     wait_until("four results arrive", Duration::from_secs(30), || mock.log().results.len() == 4).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 3, units_stale: 1, units_canceled: 0, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
+    assert_eq!(report, WorkerReport { units_done: 3, units_stale: 1, units_canceled: 0, busy: report.busy, units_queued_ahead: report.units_queued_ahead, leases_with_results: 0 });
     let log = mock.log();
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["a", "b", "c", "d"]);
@@ -342,7 +357,7 @@ async fn a_409_heartbeat_cancels_a_long_unit_quickly() {
     wait_until("the next unit's result arrives", Duration::from_secs(30), || mock.log().results.len() == 2).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 1, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 1, busy: report.busy, units_queued_ahead: report.units_queued_ahead, leases_with_results: 0 });
     let log = mock.log();
     let killed = log.killed_at.expect("a heartbeat was refused");
     let reaction = log.results[1].3 - killed;
@@ -439,7 +454,7 @@ async fn shutdown_gives_back_an_unfinished_unit() {
     wait_until("the long unit is rendering", Duration::from_secs(30), || mock.log().heartbeats.iter().any(|h| h.1 == "long")).await;
     let (report, took) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 1, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
+    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 1, busy: report.busy, units_queued_ahead: report.units_queued_ahead, leases_with_results: 0 });
     assert!(took < SHUTDOWN_GRACE + Duration::from_secs(2), "shutdown took {took:?}");
     let log = mock.log();
     assert_eq!(log.released, ["long"]);
@@ -458,7 +473,7 @@ async fn shutdown_lets_the_unit_in_hand_finish_within_the_grace() {
     let stopped_at = Instant::now();
     let (report, _) = worker.stop(Duration::from_secs(15)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 0, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 0, busy: report.busy, units_queued_ahead: report.units_queued_ahead, leases_with_results: 0 });
     let log = mock.log();
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["warm", "in-hand"]);
@@ -479,7 +494,7 @@ async fn retries_a_failing_upload() {
     wait_until("the third attempt arrives", Duration::from_secs(30), || mock.log().results.len() == 3).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 0, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
+    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 0, busy: report.busy, units_queued_ahead: report.units_queued_ahead, leases_with_results: 0 });
     let log = mock.log();
     assert!(log.results.iter().all(|r| r.0 == "a" && r.2 == log.results[0].2));
     assert_bit_exact(&log.results[2].2, &params(16, 8));
@@ -562,7 +577,7 @@ async fn requests_the_next_lease_while_a_unit_renders() {
     wait_until("three results arrive", Duration::from_secs(30), || mock.log().results.len() == 3).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 3, units_stale: 0, units_canceled: 0, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
+    assert_eq!(report, WorkerReport { units_done: 3, units_stale: 0, units_canceled: 0, busy: report.busy, units_queued_ahead: report.units_queued_ahead, leases_with_results: 0 });
     assert!(report.busy > Duration::ZERO);
     let log = mock.log();
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
@@ -600,7 +615,7 @@ async fn a_prefetched_lease_is_heartbeated_while_it_waits() {
     wait_until("\"next\"'s result arrives", Duration::from_secs(30), || mock.log().results.len() == 2).await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
-    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 1, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 1, busy: report.busy, units_queued_ahead: report.units_queued_ahead, leases_with_results: 0 });
     // "next" waited queued on the pool behind "long" ("long" itself may or may not have been
     // queued behind the short "warm").
     assert!((1..=2).contains(&report.units_queued_ahead), "{report:?}");
@@ -622,7 +637,7 @@ async fn a_prefetched_lease_lost_while_waiting_is_dropped() {
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
 
     // "doomed" (lost while waiting) and "long" (lost while rendering) count as canceled.
-    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 2, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
+    assert_eq!(report, WorkerReport { units_done: 2, units_stale: 0, units_canceled: 2, busy: report.busy, units_queued_ahead: report.units_queued_ahead, leases_with_results: 0 });
     let log = mock.log();
     let ids: Vec<&str> = log.results.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["warm", "next"]);
@@ -639,9 +654,12 @@ async fn shutdown_gives_back_a_prefetched_lease() {
     wait_until("\"next\" is given back", SHUTDOWN_GRACE / 2, || mock.log().released.iter().any(|r| r == "next")).await;
     let (report, took) = stopping.await.unwrap();
 
-    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 2, busy: report.busy, units_queued_ahead: report.units_queued_ahead });
+    assert_eq!(report, WorkerReport { units_done: 1, units_stale: 0, units_canceled: 2, busy: report.busy, units_queued_ahead: report.units_queued_ahead, leases_with_results: 0 });
     assert!(took < SHUTDOWN_GRACE + Duration::from_secs(2), "shutdown took {took:?}");
     let log = mock.log();
     assert_eq!(log.released, ["next", "long"]);
     assert_eq!(log.results.len(), 1, "only the warm-up unit is uploaded");
 }
+
+#[path = "tests_carried.rs"]
+mod carried;
