@@ -6,7 +6,9 @@
 //!                              with its confidence interval, the worker's idle time and the
 //!                              threads' CPU split (tessera_server::bench::overhead).
 //! `tessera-bench roundtrips` — a coordinator on one core fed by fake workers that return
-//!                              results instantly; prints unit round trips per second and merge cost.
+//!                              results instantly, each answer carrying the next lease as for real
+//!                              workers (`--separate-leases`: a lease request per unit); prints unit
+//!                              round trips per second and merge cost.
 //! `tessera-bench effects`    — the tracer alone on one scene with the gated kernel, the matte
 //!                              kernel (Lambert + lights only) and every effect forced on.
 //! `tessera-bench accuracy`   — the accuracy study (issue #10): relMSE vs time per scene, estimator,
@@ -63,7 +65,8 @@ enum Cmd {
     Frames(tessera_server::bench::frames::FramesBench),
     /// Time to quality (relMSE × seconds) on the Cornell box, Tessera vs Mitsuba 3 in one run.
     Mitsuba(tessera_server::bench::mitsuba::MitsubaBench),
-    /// Unit round trips per second through a one-core coordinator.
+    /// Unit round trips per second through a one-core coordinator, fed by fake workers whose
+    /// results ask for the next lease as real workers' do.
     Roundtrips {
         #[arg(long, default_value_t = 5.0)]
         seconds: f64,
