@@ -84,7 +84,7 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
     );
     let (traced, secs) = render_one_core(&scene, b.size, b.spp)?;
     if let Some(kib) = peak_rss_kib() {
-        println!("peak resident memory, the scene built, traced and rendered (what a worker holds, plus the {} MiB of random rays): {:.0} MiB", rays.len() * size_of::<Ray>() >> 20, kib as f64 / 1024.0);
+        println!("peak resident memory, the scene built, traced and rendered (what a worker holds, plus the {} MiB of random rays): {:.0} MiB", (rays.len() * size_of::<Ray>()) >> 20, kib as f64 / 1024.0);
     }
     let (stock_hits, stock_s) = obvhs_stock(&scene.mesh.positions, &rays);
     let stock = rays.len() as f64 / stock_s;

@@ -93,10 +93,10 @@ impl JobRun {
             let pick = if time_limited { candidates.iter().min_by_key(|(f, (b, _))| (*b, *f)) } else { candidates.first() };
             return pick.map(|(_, (b, t))| (*t, *b));
         };
-        if let Some(&(_, (b, t))) = aff.last.and_then(|last| candidates.iter().find(|(f, _)| *f == last)) {
-            if !time_limited || b <= lowest_batch {
-                return Some((t, b));
-            }
+        if let Some(&(_, (b, t))) = aff.last.and_then(|last| candidates.iter().find(|(f, _)| *f == last))
+            && (!time_limited || b <= lowest_batch)
+        {
+            return Some((t, b));
         }
         let busy = |f: usize| aff.busy.get(f).copied().unwrap_or(0);
         let pick = if time_limited {

@@ -371,10 +371,10 @@ impl Scheduler {
     /// Counts a failed unit against its worker on that job (the blocklist).
     fn count_failure(&mut self, l: &LeaseRec) {
         let name = self.workers.get(&l.worker).map(|w| w.name.clone()).unwrap_or_default();
-        if let Some(job) = self.jobs.get_mut(&l.job_seq) {
-            if job.count_failure(&l.worker, &name, self.max_failures) {
-                tracing::warn!(job = %job.cfg.id, worker = %l.worker, %name, "worker failed {} units of this job: kept off it", self.max_failures);
-            }
+        if let Some(job) = self.jobs.get_mut(&l.job_seq)
+            && job.count_failure(&l.worker, &name, self.max_failures)
+        {
+            tracing::warn!(job = %job.cfg.id, worker = %l.worker, %name, "worker failed {} units of this job: kept off it", self.max_failures);
         }
     }
 

@@ -9,8 +9,11 @@ const TIMEOUT: u64 = 1000;
 #[derive(Default)]
 struct Disk {
     records: HashMap<String, JobRecord>,
-    tiles: HashMap<(String, u32, u32), (Vec<tessera_worker::tracer::PixelSums>, u64, f64)>,
+    tiles: HashMap<(String, u32, u32), TileRecord>,
 }
+
+/// A tile's merged sums, batches merged and largest path weight.
+type TileRecord = (Vec<tessera_worker::tracer::PixelSums>, u64, f64);
 
 impl Disk {
     fn save(&mut self, s: &mut Scheduler, now: u64) -> usize {

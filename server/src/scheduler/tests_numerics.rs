@@ -11,7 +11,7 @@ fn awkward_sums(g: &Lease) -> PartialSums {
     let n = (g.samples[1] - g.samples[0]) as u64;
     let pixels = (0..g.tile.pixel_count() as u64)
         .map(|i| {
-            let h = (i + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (g.samples[0] as u64 + 7).wrapping_mul(0xD1B5_4A32_D192_ED03) ^ g.tile.x0 as u64 * 31 + g.tile.y0 as u64;
+            let h = (i + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (g.samples[0] as u64 + 7).wrapping_mul(0xD1B5_4A32_D192_ED03) ^ (g.tile.x0 as u64 * 31 + g.tile.y0 as u64);
             let v = 10f64.powi((h % 13) as i32 - 6) * (1.0 + (h >> 40) as f64 / (1u64 << 24) as f64);
             WirePixel { sum: [v * n as f64, v, 0.1 * v], sum_sq: [v * v * n as f64; 3], sum_lum_sq: v * v, count: n }
         })

@@ -98,7 +98,7 @@ fn glass(m: &gltf::Material, pbr: &gltf::material::PbrMetallicRoughness) -> Resu
     let sigma_a = match &volume {
         Some(v) => {
             let (colour, distance) = (Vec3::from(v.attenuation_color()), v.attenuation_distance());
-            if !(distance > 0.0) || !(colour.min_element() > 0.0 && colour.max_element() <= 1.0) {
+            if !(distance > 0.0 && colour.min_element() > 0.0 && colour.max_element() <= 1.0) {
                 return Err(format!("KHR_materials_volume: attenuationDistance {distance} must be > 0 and attenuationColor {colour} in (0, 1]"));
             }
             // Infinite distance (the default) means no absorption.

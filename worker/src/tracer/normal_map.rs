@@ -150,6 +150,6 @@ mod tests {
                 assert_eq!(m, n, "sane normals are kept");
             }
         }
-        assert_eq!(keep_consistent(-Vec3::Z, Vec3::Z, Vec3::Z).is_finite(), true);
+        assert!(keep_consistent(-Vec3::Z, Vec3::Z, Vec3::Z).is_finite());
     }
 }

@@ -15,6 +15,7 @@ use tessera_worker::tracer::{PixelSums, RenderSettings, Scene, render_tile};
 pub const CACHE_VERSION: u32 = 1;
 const MAGIC: &[u8; 8] = b"TSACREF1";
 /// Reference renders use this seed; measured renders use small seeds.
+#[allow(clippy::unusual_byte_groupings)] // spelt "seed of ref"
 pub const REFERENCE_SEED: u64 = 0x5eed_0f_2ef;
 
 pub struct Reference {
@@ -86,7 +87,10 @@ pub fn rendered_with(scene: &Scene, scene_bytes: &[u8], name: &str, size: u32, s
     Ok(Reference { means, variance, description })
 }
 
-fn read(file: &Path, size: u32, spp: u32) -> Option<(Vec<[f64; 3]>, Vec<[f64; 3]>)> {
+/// A reference's per-pixel means and variances.
+type Planes = (Vec<[f64; 3]>, Vec<[f64; 3]>);
+
+fn read(file: &Path, size: u32, spp: u32) -> Option<Planes> {
     let bytes = std::fs::read(file).ok()?;
     let n = (size * size) as usize;
     if bytes.len() != 32 + n * 48 || &bytes[..8] != MAGIC || bytes[8..12] != size.to_le_bytes() || bytes[12..16] != spp.to_le_bytes() {

@@ -29,6 +29,7 @@ mod table;
 pub const N: usize = 32;
 
 /// (E, E_fw) at view cosine `mu` and perceptual roughness `roughness` (both clamped to [0, 1]).
+#[allow(clippy::manual_clamp)] // see below
 pub fn lookup(mu: f32, roughness: f32) -> (f32, f32) {
     // max/min rather than clamp: they map NaN to the bound instead of propagating it.
     let x = mu.max(0.0).min(1.0).sqrt() * (N - 1) as f32;
