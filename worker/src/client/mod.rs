@@ -2,10 +2,10 @@
 //!
 //! ```text
 //! register ──► lease ──► scene (cached) ──► render on the pool ──► upload (in the background)
-//!    ▲          │  ▲                                │                 at most one in flight;
-//!    └── 404 ───┘  └──── prefetch: the next lease ◄─┘ its answer carries the lease after next
-//!                        (from the last upload's answer, else asked for) as the unit starts,
-//!                        its unit queued on the pool behind it, held (heartbeated) until it ends
+//!    ▲          │  ▲                                │                 at most one in flight; its
+//!    └── 404 ───┘  └──── prefetch: the next lease ◄─┘                 answer carries a lease
+//!                        as the unit starts (the last upload's answer's, else asked for), its
+//!                        unit queued on the pool behind it, held (heartbeated) until it ends
 //!  204 (no work): poll again after a short backoff
 //!  heartbeats every heartbeat_ms/3 (≤ 1 s) for each lease held, rendering or prefetched;
 //!  409 drops it (a rendering unit is canceled)
@@ -169,7 +169,6 @@ struct Carry {
     /// This worker's id with the coordinator, once registered: deregistered at the end.
     worker_id: Option<String>,
 }
-
 
 struct Worker {
     name: String,
