@@ -146,17 +146,19 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, Query(q)
         if let Some((kind, ms)) = prepare_report(&headers) {
             sched.note_prepare(&id, kind, ms);
         }
-        let holder = q.next.unwrap_or(false).then(|| sched.holder(&id).map(str::to_owned)).flatten();
         let t0 = std::time::Instant::now();
         let outcome = sched.complete(&id, sums, st.now());
         st.counters.merge_nanos.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
         // The worker's next unit in the same answer: one request per unit instead of two.
-        let next = holder.filter(|_| outcome.is_ok()).and_then(|w| sched.lease(&w, st.now()).ok().flatten());
+        let next = match &outcome {
+            Ok(a) if q.next == Some(true) => sched.lease(&a.worker, st.now()).ok().flatten(),
+            _ => None,
+        };
         (outcome, next)
     };
     st.0.settle().await;
     match outcome {
-        Ok(Accepted { job_id, merged, job_finished }) => {
+        Ok(Accepted { job_id, merged, job_finished, .. }) => {
             if merged {
                 st.counters.units_merged.fetch_add(1, Ordering::Relaxed);
                 st.notify(&job_id);

@@ -47,6 +47,8 @@ pub enum ResultError {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Accepted {
     pub job_id: String,
+    /// The worker that held the lease.
+    pub worker: String,
     /// False when the result was valid but no longer needed (its tile reached its noise target).
     pub merged: bool,
     pub job_finished: bool,
@@ -271,11 +273,6 @@ impl Scheduler {
         }
     }
 
-    /// The worker holding lease `lease_id`, if it is active.
-    pub fn holder(&self, lease_id: &str) -> Option<&str> {
-        self.leases.get(lease_id).map(|l| l.worker.as_str())
-    }
-
     pub fn complete(&mut self, lease_id: &str, sums: PartialSums, now: u64) -> Result<Accepted, ResultError> {
         self.tick(now);
         let l = self.leases.remove(lease_id).ok_or_else(|| ResultError::Stale(format!("lease {lease_id} is not active (expired, revoked or already completed)")))?;
@@ -307,13 +304,13 @@ impl Scheduler {
         }
         let job_id = job.cfg.id.clone();
         if !job.wants(l.tile, l.batch) {
-            return Ok(Accepted { job_id, merged: false, job_finished: false });
+            return Ok(Accepted { job_id, worker: l.worker, merged: false, job_finished: false });
         }
-        let by = Renderer { name: self.workers.get(&l.worker).map(|w| w.name.clone()).unwrap_or_default(), id: l.worker };
+        let by = Renderer { name: self.workers.get(&l.worker).map(|w| w.name.clone()).unwrap_or_default(), id: l.worker.clone() };
         job.accept(l.tile, l.batch, sums, by, now);
         let job_finished = job.state.is_final();
         self.revoke_unwanted(l.job_seq);
-        Ok(Accepted { job_id, merged: true, job_finished })
+        Ok(Accepted { job_id, worker: l.worker, merged: true, job_finished })
     }
 
     /// Cancels a job; its leases are revoked (their heartbeats answer "gone").
