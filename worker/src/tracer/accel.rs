@@ -8,8 +8,9 @@
 //! - its wide BVH skips boxes lying entirely within 1e-4 of the origin, an absolute distance. The
 //!   tree is therefore built in a space scaled by a power of two (exact in floating point) that
 //!   makes the scene about 2¹² units across, where 1e-4 is below f32 resolution.
-use crate::tracer::ray::{MACHINE_EPSILON, Ray, gamma};
-use glam::{DVec3, Mat3A, Vec3, Vec3A};
+use crate::tracer::ray::{MACHINE_EPSILON, Ray};
+use glam::{DVec3, Vec3, Vec3A};
+use packet::{Packets, WatertightRay, for_packets, intersect_triangle};
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::ploc::PlocBuilder;
@@ -31,8 +32,8 @@ enum Tree {
 
 pub struct Accel {
     tree: Tree,
-    /// Triangle vertices in tree space, in the tree's primitive order.
-    verts: Vec<[Vec3; 3]>,
+    /// Triangle vertices in tree space, in the tree's primitive order, four to a packet.
+    tris: Packets,
     /// Tree primitive slot → caller's triangle index.
     prim_ids: Vec<u32>,
     scale: f32,
@@ -67,7 +68,7 @@ impl Accel {
         let keep = kept(tris);
         let scale = tree_scale(keep.iter().map(|&i| &tris[i as usize]));
         if keep.is_empty() {
-            return Accel { tree: Tree::Empty, verts: Vec::new(), prim_ids: Vec::new(), scale, refit: None };
+            return Accel { tree: Tree::Empty, tris: Packets::new(&[]), prim_ids: Vec::new(), scale, refit: None };
         }
         let obvhs_tris = tree_triangles(tris, &keep, scale);
         let params = BvhBuildParams::medium_build();
@@ -100,11 +101,11 @@ impl Accel {
         let slots = match &tree {
             Tree::Wide(b) => &b.primitive_indices,
             Tree::Binary(b) => &b.primitive_indices,
-            Tree::Empty => return Accel { tree, verts: Vec::new(), prim_ids: Vec::new(), scale, refit: None },
+            Tree::Empty => return Accel { tree, tris: Packets::new(&[]), prim_ids: Vec::new(), scale, refit: None },
         };
         let prim_ids: Vec<u32> = slots.iter().map(|&k| keep[k as usize]).collect();
-        let verts = prim_ids.iter().map(|&i| tris[i as usize].map(|v| v * scale)).collect();
-        Accel { tree, verts, prim_ids, scale, refit }
+        let verts: Vec<[Vec3; 3]> = prim_ids.iter().map(|&i| tris[i as usize].map(|v| v * scale)).collect();
+        Accel { tree, tris: Packets::new(&verts), prim_ids, scale, refit }
     }
 
     /// Closest hit with 0 < t < t_max.
@@ -118,34 +119,46 @@ impl Accel {
     #[inline]
     pub fn intersect_where(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool) -> Option<Hit> {
         let (obvhs_ray, wt) = self.tree_ray(ray, t_max)?;
-        let mut best: Option<(u32, f32, f32)> = None;
-        let mut closest = |r: &obvhs::ray::Ray, slot: usize| -> f32 {
-            // The test accepts t ≤ tmax, so a tie (a ray through a shared edge) comes here too:
-            // it goes to the smaller triangle index, making the hit independent of the order
-            // in which the tree is walked (a rebuilt and a refitted tree give the same hit).
-            // obvhs itself only records t strictly below tmax; `best` is what counts.
-            match intersect_triangle(&wt, &self.verts[slot], r.tmax) {
-                Some((t, b1, b2))
-                    if (t < r.tmax || (t == r.tmax && best.is_some_and(|(s, _, _)| self.prim_ids[slot] < self.prim_ids[s as usize])))
-                        && keep(self.prim_ids[slot], b1, b2) =>
-                {
-                    best = Some((slot as u32, b1, b2));
-                    t
-                }
-                _ => f32::INFINITY,
+        // (slot, t, b1, b2) of the closest accepted candidate. The test accepts t ≤ tmax, so a
+        // tie (a ray through a shared edge) comes here too: it goes to the smaller triangle
+        // index, making the hit independent of the order in which the tree is walked (a
+        // rebuilt and a refitted tree give the same hit). Only t < tmax shortens the ray.
+        let mut best: Option<(usize, f32, f32, f32)> = None;
+        let mut consider = |r: &mut obvhs::ray::Ray, slot: usize, t: f32, b1: f32, b2: f32| {
+            let closer = t < r.tmax || (t == r.tmax && best.is_some_and(|(s, ..)| self.prim_ids[slot] < self.prim_ids[s]));
+            if closer && keep(self.prim_ids[slot], b1, b2) {
+                best = Some((slot, t, b1, b2));
+                r.tmax = r.tmax.min(t);
             }
         };
-        let t = match &self.tree {
-            Tree::Wide(b) => wide::closest(b, obvhs_ray, &mut closest),
+        match &self.tree {
+            Tree::Wide(b) => wide::walk(b, obvhs_ray, |r, base, bits| {
+                for_packets(base, bits, |packet, lanes| {
+                    let c = self.tris.test(&wt, packet, lanes, r.tmax);
+                    let mut hits = c.hits;
+                    while hits != 0 {
+                        let lane = hits.trailing_zeros() as usize;
+                        hits &= hits - 1;
+                        consider(r, packet * 4 + lane, c.t[lane], c.b1[lane], c.b2[lane]);
+                    }
+                    false
+                })
+            }),
             Tree::Binary(b) => {
+                let mut walk = obvhs_ray;
                 let mut hit = RayHit::none();
-                b.ray_traverse(obvhs_ray, &mut hit, &mut closest).then_some(hit.t)
+                b.ray_traverse(obvhs_ray, &mut hit, |r: &obvhs::ray::Ray, slot: usize| {
+                    walk.tmax = r.tmax;
+                    if let Some((t, b1, b2)) = intersect_triangle(&wt, &self.tris.triangle(slot), r.tmax) {
+                        consider(&mut walk, slot, t, b1, b2);
+                    }
+                    walk.tmax
+                });
             }
-            Tree::Empty => None,
-        }?;
-        // The last accepted candidate is the closest (t only decreases; ties go to the smaller index).
-        let (slot, b1, b2) = best?;
-        Some(Hit { t: t / self.scale, prim: self.prim_ids[slot as usize], b1, b2 })
+            Tree::Empty => {}
+        }
+        let (slot, t, b1, b2) = best?;
+        Some(Hit { t: t / self.scale, prim: self.prim_ids[slot], b1, b2 })
     }
 
     /// Whether anything blocks the ray on 0 < t < t_max.
@@ -158,19 +171,38 @@ impl Accel {
     #[inline]
     pub fn occluded_where(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool) -> bool {
         let Some((obvhs_ray, wt)) = self.tree_ray(ray, t_max) else { return false };
-        let any = |r: &obvhs::ray::Ray, slot: usize| -> f32 {
-            match intersect_triangle(&wt, &self.verts[slot], r.tmax) {
-                Some((t, b1, b2)) if keep(self.prim_ids[slot], b1, b2) => t,
-                _ => f32::INFINITY,
-            }
-        };
+        let blocks = |slot: usize, t: f32, b1: f32, b2: f32, tmax: f32| t < tmax && keep(self.prim_ids[slot], b1, b2);
         match &self.tree {
-            Tree::Wide(b) => wide::any(b, obvhs_ray, any),
-            Tree::Binary(b) => !b.ray_traverse_miss(obvhs_ray, any),
+            Tree::Wide(b) => {
+                let mut found = false;
+                wide::walk(b, obvhs_ray, |r, base, bits| {
+                    found = for_packets(base, bits, |packet, lanes| {
+                        let c = self.tris.test(&wt, packet, lanes, r.tmax);
+                        let mut hits = c.hits;
+                        while hits != 0 {
+                            let lane = hits.trailing_zeros() as usize;
+                            hits &= hits - 1;
+                            if blocks(packet * 4 + lane, c.t[lane], c.b1[lane], c.b2[lane], r.tmax) {
+                                return true;
+                            }
+                        }
+                        false
+                    });
+                    found
+                });
+                found
+            }
+            Tree::Binary(b) => !b.ray_traverse_miss(obvhs_ray, |r: &obvhs::ray::Ray, slot: usize| {
+                match intersect_triangle(&wt, &self.tris.triangle(slot), r.tmax) {
+                    Some((t, b1, b2)) if blocks(slot, t, b1, b2, r.tmax) => t,
+                    _ => f32::INFINITY,
+                }
+            }),
             Tree::Empty => false,
         }
     }
 
+    #[inline(always)]
     fn tree_ray(&self, ray: &Ray, t_max: f32) -> Option<(obvhs::ray::Ray, WatertightRay)> {
         let origin = ray.origin * self.scale;
         if !(origin.is_finite() && ray.dir.is_finite()) || ray.dir == Vec3::ZERO {
@@ -280,132 +312,6 @@ fn tree_scale<'a>(tris: impl Iterator<Item = &'a [Vec3; 3]>) -> f32 {
     2f32.powi(k)
 }
 
-/// Per-ray constants of the watertight test: the axis permutation and shear that map the ray
-/// to +z through the origin.
-struct WatertightRay {
-    origin: Vec3A,
-    perm: [usize; 3],
-    shear: Vec3,
-    /// The permutation and the x, y shears as one matrix (rows: e_kx + sx·e_kz, e_ky + sy·e_kz,
-    /// e_kz), so a vertex is transformed by three SIMD multiply-adds instead of indexed loads.
-    /// Each row product is p[k] + s·p[kz] plus exact zeros: the same bits as the scalar form.
-    rows: Mat3A,
-}
-
-impl WatertightRay {
-    fn new(origin: Vec3, dir: Vec3) -> WatertightRay {
-        let kz = dir.abs().max_position();
-        let kx = (kz + 1) % 3;
-        let ky = (kx + 1) % 3;
-        let d = Vec3::new(dir[kx], dir[ky], dir[kz]);
-        let shear = Vec3::new(-d.x / d.z, -d.y / d.z, 1.0 / d.z);
-        let unit = |k: usize| Vec3A::AXES[k];
-        let row_x = unit(kx) + unit(kz) * shear.x;
-        let row_y = unit(ky) + unit(kz) * shear.y;
-        // Columns of the transpose: rows[i] becomes component i of the product.
-        let rows = Mat3A::from_cols(row_x, row_y, unit(kz)).transpose();
-        WatertightRay { origin: Vec3A::from(origin), perm: [kx, ky, kz], shear, rows }
-    }
-
-    #[inline]
-    fn transform(&self, v: Vec3) -> Vec3 {
-        Vec3::from(self.rows * (Vec3A::from(v) - self.origin))
-    }
-}
-
-/// a·b − c·d, accurate to about one f32 ulp: the products of f32s are exact in f64, leaving one
-/// f64 rounding and one f32 rounding. Sign-symmetric, so an edge shared by two triangles gets
-/// exactly opposite values from both (watertightness), and needs no FMA instruction (a software
-/// `fmaf` call cost 4% of render time on CPUs targeted without FMA).
-fn difference_of_products(a: f32, b: f32, c: f32, d: f32) -> f32 {
-    (a as f64 * b as f64 - c as f64 * d as f64) as f32
-}
-
-fn edge_functions(p0: Vec3, p1: Vec3, p2: Vec3) -> (f32, f32, f32) {
-    let mut e = (
-        difference_of_products(p1.x, p2.y, p1.y, p2.x),
-        difference_of_products(p2.x, p0.y, p2.y, p0.x),
-        difference_of_products(p0.x, p1.y, p0.y, p1.x),
-    );
-    if e.0 == 0.0 || e.1 == 0.0 || e.2 == 0.0 {
-        // The ray passes exactly through an edge in f32: decide in f64 so neighbours agree.
-        let f = |a: Vec3, b: Vec3| (a.x as f64 * b.y as f64 - a.y as f64 * b.x as f64) as f32;
-        e = (f(p1, p2), f(p2, p0), f(p0, p1));
-    }
-    e
-}
-
-/// Watertight ray–triangle test (pbrt-v4 `IntersectTriangle`): returns (t, b1, b2) for a hit with
-/// t conservatively > 0 and t < t_max.
-fn intersect_triangle(ray: &WatertightRay, v: &[Vec3; 3], t_max: f32) -> Option<(f32, f32, f32)> {
-    let (mut p0, mut p1, mut p2) = (ray.transform(v[0]), ray.transform(v[1]), ray.transform(v[2]));
-    let (e0, e1, e2) = edge_functions(p0, p1, p2);
-    if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
-        return None;
-    }
-    let det = e0 + e1 + e2;
-    if det == 0.0 {
-        return None;
-    }
-    p0.z *= ray.shear.z;
-    p1.z *= ray.shear.z;
-    p2.z *= ray.shear.z;
-    let t_scaled = e0 * p0.z + e1 * p1.z + e2 * p2.z;
-    if det < 0.0 && (t_scaled >= 0.0 || t_scaled < t_max * det) {
-        return None;
-    }
-    if det > 0.0 && (t_scaled <= 0.0 || t_scaled > t_max * det) {
-        return None;
-    }
-    let inv_det = 1.0 / det;
-    let t = t_scaled * inv_det;
-    if t <= t_error_bound(p0, p1, p2, (e0, e1, e2), inv_det) && !positive_in_f64(ray, v) {
-        return None;
-    }
-    Some((t, e1 * inv_det, e2 * inv_det))
-}
-
-/// pbrt-v4's conservative bound on the error of t, so that hits behind the origin are rejected.
-fn t_error_bound(p0: Vec3, p1: Vec3, p2: Vec3, e: (f32, f32, f32), inv_det: f32) -> f32 {
-    let max_zt = Vec3::new(p0.z, p1.z, p2.z).abs().max_element();
-    let max_xt = Vec3::new(p0.x, p1.x, p2.x).abs().max_element();
-    let max_yt = Vec3::new(p0.y, p1.y, p2.y).abs().max_element();
-    let delta_z = gamma(3) * max_zt;
-    let delta_x = gamma(5) * (max_xt + max_zt);
-    let delta_y = gamma(5) * (max_yt + max_zt);
-    let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    let max_e = Vec3::new(e.0, e.1, e.2).abs().max_element();
-    3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs()
-}
-
-/// The f32 bound on t is loose for thin triangles far away (it can exceed t itself); before
-/// rejecting such a hit, redo the test in f64, where the same bound is 2²⁹ times tighter.
-fn positive_in_f64(ray: &WatertightRay, v: &[Vec3; 3]) -> bool {
-    let [kx, ky, kz] = ray.perm;
-    let o = ray.origin.as_dvec3();
-    let s = ray.shear.as_dvec3();
-    let p = v.map(|q| {
-        let d = q.as_dvec3() - o;
-        glam::DVec3::new(d[kx] + s.x * d[kz], d[ky] + s.y * d[kz], d[kz] * s.z)
-    });
-    let e = [
-        p[1].x * p[2].y - p[1].y * p[2].x,
-        p[2].x * p[0].y - p[2].y * p[0].x,
-        p[0].x * p[1].y - p[0].y * p[1].x,
-    ];
-    let det = e[0] + e[1] + e[2];
-    let t = (e[0] * p[0].z + e[1] * p[1].z + e[2] * p[2].z) / det;
-    let g = |n: f64| n * f64::EPSILON * 0.5 / (1.0 - n * f64::EPSILON * 0.5);
-    let max = |f: fn(&glam::DVec3) -> f64| p.iter().map(|q| f(q).abs()).fold(0.0, f64::max);
-    let (mx, my, mz) = (max(|q| q.x), max(|q| q.y), max(|q| q.z));
-    let (dx, dy, dz) = (g(5.0) * (mx + mz), g(5.0) * (my + mz), g(3.0) * mz);
-    let de = 2.0 * (g(2.0) * mx * my + dy * mx + dx * my);
-    let me = e.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-    // Shearing in f64 adds error of the order of the f32 inputs' own rounding; count it in.
-    let bound = 3.0 * (g(3.0) * me * mz + de * mz + dz * me) / det.abs() + g(8.0) * mz;
-    t > bound
-}
-
 /// Closest hit (t, triangle index) by testing every triangle in world space: the reference
 /// the BVH traversal is checked against.
 #[cfg(test)]
@@ -425,6 +331,8 @@ pub(crate) fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(f32, u32)> {
 mod refit;
 #[path = "accel_wide.rs"]
 mod wide;
+#[path = "accel_packet.rs"]
+mod packet;
 
 #[cfg(test)]
 #[path = "accel_tests.rs"]

@@ -1,7 +1,10 @@
-//! Closest-hit and any-hit walks of obvhs's wide BVH, as its `ray_traverse` and
-//! `ray_traverse_miss` do (its `traverse!` macro, its node test), with one difference: the
-//! traversal stack is not zeroed for every ray. obvhs builds a fresh 32-entry stack of `UVec2`
-//! per query, a 256-byte `memset` that cost ≈ 1.8 % of a Cornell box render (perf, 2026-12-01).
+//! The walk of obvhs's wide BVH, as its `ray_traverse` and `ray_traverse_miss` do (the steps of
+//! its `traverse!` macro, its node test), with two differences:
+//! - a node's candidate triangles go to the caller together, to be tested four at a time
+//!   (`accel_packet.rs`), not one by one;
+//! - the traversal stack is not zeroed for every ray. obvhs builds a fresh 32-entry stack of
+//!   `UVec2` per query, a 256-byte `memset` that cost ≈ 1.8 % of a Cornell box render (perf,
+//!   2026-12-01).
 //!
 //! Depth: [`super::Accel`] only builds a wide tree shallower than [`STACK`] (see `wide_depth`),
 //! so the stack never fills; were it to, pushes saturate as obvhs's do (no overflow).
@@ -63,8 +66,6 @@ struct State {
     stack: Stack,
     current_group: UVec2,
     primitive_group: UVec2,
-    primitive_id: u32,
-    hitmask: u32,
     oct_inv4: u32,
 }
 
@@ -72,7 +73,7 @@ impl State {
     #[inline(always)]
     fn new(bvh: &CwBvh, dir: Vec3A) -> State {
         let root = if bvh.nodes.is_empty() { UVec2::ZERO } else { UVec2::new(0, 0x8000_0000) };
-        State { stack: Stack::new(), current_group: root, primitive_group: UVec2::ZERO, primitive_id: 0, hitmask: 0, oct_inv4: octant_inv4(dir) }
+        State { stack: Stack::new(), current_group: root, primitive_group: UVec2::ZERO, oct_inv4: octant_inv4(dir) }
     }
 }
 
@@ -82,35 +83,48 @@ fn octant_inv4(dir: Vec3A) -> u32 {
     (if dir.x < 0.0 { 0 } else { 0x0404_0404 }) | (if dir.y < 0.0 { 0 } else { 0x0202_0202 }) | (if dir.z < 0.0 { 0 } else { 0x0101_0101 })
 }
 
-/// Closest hit: `hit(ray, slot)` returns a candidate's t (∞ for none); the ray shortens to each
-/// t below its tmax. The last such t, if any.
+/// Walks the tree along `ray`, handing `leaf(ray, base, bits)` the candidate triangles of each
+/// node at once (slots `base + i` for the set bits i: every triangle of the node's leaf children
+/// the ray enters) instead of one at a time as obvhs's `traverse!` does, so they can be tested
+/// four to a packet. `leaf` may shorten `ray.tmax` (closest hit: later boxes are culled against
+/// it) and returns true to stop the walk (any hit). Otherwise the steps of `traverse!`.
 #[inline(always)]
-pub(super) fn closest(bvh: &CwBvh, ray: Ray, mut hit: impl FnMut(&Ray, usize) -> f32) -> Option<f32> {
-    let mut walk = ray;
+pub(super) fn walk(bvh: &CwBvh, mut ray: Ray, mut leaf: impl FnMut(&mut Ray, u32, u32) -> bool) {
     let mut state = State::new(bvh, ray.direction);
-    let mut node;
-    obvhs::traverse!(bvh, node, state, node.intersect_ray(&walk, state.oct_inv4), {
-        let t = hit(&walk, state.primitive_id as usize);
-        if t < walk.tmax {
-            walk.tmax = t;
+    loop {
+        if state.primitive_group.y != 0 {
+            if leaf(&mut ray, state.primitive_group.x, state.primitive_group.y) {
+                return;
+            }
+            state.primitive_group = UVec2::ZERO;
         }
-    });
-    (walk.tmax < ray.tmax).then_some(walk.tmax)
+        if state.current_group.y & 0xff00_0000 != 0 {
+            let hits_imask = state.current_group.y;
+            let child_index_offset = firstbithigh(hits_imask);
+            state.current_group.y &= !(1u32 << child_index_offset);
+            if state.current_group.y & 0xff00_0000 != 0 {
+                state.stack.push(state.current_group);
+            }
+            let slot_index = (child_index_offset - 24) ^ (state.oct_inv4 & 0xff);
+            let relative_index = (hits_imask & !(0xffff_ffffu32 << slot_index)).count_ones();
+            let node = &bvh.nodes[(state.current_group.x + relative_index) as usize];
+            let hitmask = node.intersect_ray(&ray, state.oct_inv4);
+            state.current_group = UVec2::new(node.child_base_idx, (hitmask & 0xff00_0000) | node.imask as u32);
+            state.primitive_group = UVec2::new(node.primitive_base_idx, hitmask & 0x00ff_ffff);
+        } else {
+            state.current_group = UVec2::ZERO;
+        }
+        if state.primitive_group.y == 0 && state.current_group.y & 0xff00_0000 == 0 {
+            match state.stack.pop() {
+                Some(group) => state.current_group = group,
+                None => return,
+            }
+        }
+    }
 }
 
-/// Any hit: true when `hit(ray, slot)` returns a t below tmax for some candidate.
+/// Index of the highest set bit (obvhs's `firstbithigh`).
 #[inline(always)]
-pub(super) fn any(bvh: &CwBvh, ray: Ray, mut hit: impl FnMut(&Ray, usize) -> f32) -> bool {
-    let mut state = State::new(bvh, ray.direction);
-    let mut node;
-    let mut found = false;
-    'walk: {
-        obvhs::traverse!(bvh, node, state, node.intersect_ray(&ray, state.oct_inv4), {
-            if hit(&ray, state.primitive_id as usize) < ray.tmax {
-                found = true;
-                break 'walk;
-            }
-        });
-    }
-    found
+fn firstbithigh(v: u32) -> u32 {
+    31 - v.leading_zeros()
 }
