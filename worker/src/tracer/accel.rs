@@ -1,7 +1,9 @@
 //! Ray–triangle acceleration: an obvhs BVH with a watertight triangle test.
 //!
-//! obvhs supplies the tree and its SIMD traversal; the triangle test is ours (Woop, Benthin and
-//! Wald 2013, as in pbrt-v4) because obvhs's Möller–Trumbore test leaks rays through shared edges.
+//! obvhs supplies the tree and its SIMD node test; the walk (`accel_wide.rs`) and the triangle
+//! test are ours: watertight (Woop, Benthin and Wald 2013, as in pbrt-v4), because obvhs's
+//! Möller–Trumbore test leaks rays through shared edges, and run on four triangles at once
+//! (`accel_packet.rs`).
 //! Two obvhs pitfalls are handled here, not by callers:
 //! - its `Ray::new` clamps tiny direction components, so near-axis rays could miss thin far
 //!   geometry: we write the exact reciprocal (±f32::MAX for zero) into `inv_direction`;
@@ -209,7 +211,7 @@ impl Accel {
             return None;
         }
         let tmax = t_max * self.scale;
-        let inv = ray.dir.map(exact_reciprocal);
+        let inv = exact_reciprocal(ray.dir.into());
         let r = obvhs::ray::Ray {
             origin: origin.into(),
             direction: ray.dir.into(),
@@ -287,11 +289,11 @@ pub fn triangle_normal(v: &[Vec3; 3]) -> Option<DVec3> {
     (height > MACHINE_EPSILON as f64 * reach && height.is_finite()).then(|| cross / cross.length())
 }
 
-/// 1/x, with ±f32::MAX instead of ±∞ so that a slab test on a zero component gives 0·MAX = 0
-/// (ray inside the slab) rather than NaN.
-fn exact_reciprocal(x: f32) -> f32 {
-    let r = 1.0 / x;
-    if r.is_infinite() { f32::MAX.copysign(r) } else { r }
+/// 1/x per lane, with ±f32::MAX instead of ±∞ so that a slab test on a zero component gives
+/// 0·MAX = 0 (ray inside the slab) rather than NaN. One SIMD division, the bits of three.
+fn exact_reciprocal(x: Vec3A) -> Vec3A {
+    let r = Vec3A::ONE / x;
+    Vec3A::select(r.is_finite_mask(), r, Vec3A::splat(f32::MAX).copysign(r))
 }
 
 /// Power of two bringing the scene's extent near 2^TARGET_EXTENT_LOG2, clamped so nothing overflows.

@@ -13,7 +13,7 @@
 //! (pbrt-v3/v4 do the same). Every lane does the same IEEE operations as a one-lane test, so a
 //! triangle's hit does not depend on the packet it sits in.
 use crate::tracer::ray::gamma;
-use glam::{DVec3, Vec3, Vec4};
+use glam::{DVec3, Vec3, Vec3A, Vec4};
 
 /// Per-ray constants: the axis permutation and shear that map the ray to +z through the
 /// origin, each in every lane. Kept small (and built inline), as it is made for every ray.
@@ -29,10 +29,10 @@ impl WatertightRay {
     #[inline(always)]
     pub(super) fn new(origin: Vec3, dir: Vec3) -> WatertightRay {
         let kz = dir.abs().max_position();
-        let kx = (kz + 1) % 3;
-        let ky = (kx + 1) % 3;
-        let d = Vec3::new(dir[kx], dir[ky], dir[kz]);
-        let shear = Vec3::new(-d.x / d.z, -d.y / d.z, 1.0 / d.z);
+        let next = |k: usize| if k == 2 { 0 } else { k + 1 };
+        let (kx, ky) = (next(kz), next(next(kz)));
+        // One SIMD division: the bits of −d[kx]/d[kz], −d[ky]/d[kz], 1/d[kz].
+        let shear = Vec3A::new(-dir[kx], -dir[ky], 1.0) / Vec3A::splat(dir[kz]);
         let o = [Vec4::splat(origin[kx]), Vec4::splat(origin[ky]), Vec4::splat(origin[kz])];
         let s = [Vec4::splat(shear.x), Vec4::splat(shear.y), Vec4::splat(shear.z)];
         WatertightRay { perm: [kx, ky, kz], o, s }
