@@ -335,6 +335,8 @@ mod refit;
 mod wide;
 #[path = "accel_packet.rs"]
 mod packet;
+#[path = "accel_node.rs"]
+mod node;
 
 #[cfg(test)]
 #[path = "accel_tests.rs"]

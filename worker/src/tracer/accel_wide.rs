@@ -108,7 +108,7 @@ pub(super) fn walk(bvh: &CwBvh, mut ray: Ray, mut leaf: impl FnMut(&mut Ray, u32
             let slot_index = (child_index_offset - 24) ^ (state.oct_inv4 & 0xff);
             let relative_index = (hits_imask & !(0xffff_ffffu32 << slot_index)).count_ones();
             let node = &bvh.nodes[(state.current_group.x + relative_index) as usize];
-            let hitmask = node.intersect_ray(&ray, state.oct_inv4);
+            let hitmask = super::node::hits(node, &ray, state.oct_inv4);
             state.current_group = UVec2::new(node.child_base_idx, (hitmask & 0xff00_0000) | node.imask as u32);
             state.primitive_group = UVec2::new(node.primitive_base_idx, hitmask & 0x00ff_ffff);
         } else {
