@@ -215,7 +215,7 @@ impl Accel {
         let r = obvhs::ray::Ray {
             origin: origin.into(),
             direction: ray.dir.into(),
-            inv_direction: inv.into(),
+            inv_direction: inv,
             tmin: 0.0,
             tmax,
         };
