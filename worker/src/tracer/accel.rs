@@ -126,35 +126,31 @@ impl Accel {
         // index, making the hit independent of the order in which the tree is walked (a
         // rebuilt and a refitted tree give the same hit). Only t < tmax shortens the ray.
         let mut best: Option<(usize, f32, f32, f32)> = None;
-        let mut consider = |r: &mut obvhs::ray::Ray, slot: usize, t: f32, b1: f32, b2: f32| {
-            let closer = t < r.tmax || (t == r.tmax && best.is_some_and(|(s, ..)| self.prim_ids[slot] < self.prim_ids[s]));
+        let mut consider = |tmax: &mut f32, slot: usize, t: f32, b1: f32, b2: f32| {
+            let closer = t < *tmax || (t == *tmax && best.is_some_and(|(s, ..)| self.prim_ids[slot] < self.prim_ids[s]));
             if closer && keep(self.prim_ids[slot], b1, b2) {
                 best = Some((slot, t, b1, b2));
-                r.tmax = r.tmax.min(t);
+                *tmax = tmax.min(t);
             }
         };
         match &self.tree {
             Tree::Wide(b) => wide::walk(b, obvhs_ray, |r, base, bits| {
                 for_packets(base, bits, |packet, lanes| {
-                    let c = self.tris.test(&wt, packet, lanes, r.tmax);
-                    let mut hits = c.hits;
-                    while hits != 0 {
-                        let lane = hits.trailing_zeros() as usize;
-                        hits &= hits - 1;
-                        consider(r, packet * 4 + lane, c.t[lane], c.b1[lane], c.b2[lane]);
+                    for (lane, t, b1, b2) in self.tris.test(&wt, packet, lanes, r.tmax).iter() {
+                        consider(&mut r.tmax, packet * 4 + lane, t, b1, b2);
                     }
                     false
                 })
             }),
             Tree::Binary(b) => {
-                let mut walk = obvhs_ray;
+                // obvhs shortens the ray to the t returned when it is below tmax.
                 let mut hit = RayHit::none();
                 b.ray_traverse(obvhs_ray, &mut hit, |r: &obvhs::ray::Ray, slot: usize| {
-                    walk.tmax = r.tmax;
+                    let mut tmax = r.tmax;
                     if let Some((t, b1, b2)) = intersect_triangle(&wt, &self.tris.triangle(slot), r.tmax) {
-                        consider(&mut walk, slot, t, b1, b2);
+                        consider(&mut tmax, slot, t, b1, b2);
                     }
-                    walk.tmax
+                    tmax
                 });
             }
             Tree::Empty => {}
@@ -180,15 +176,7 @@ impl Accel {
                 wide::walk(b, obvhs_ray, |r, base, bits| {
                     found = for_packets(base, bits, |packet, lanes| {
                         let c = self.tris.test(&wt, packet, lanes, r.tmax);
-                        let mut hits = c.hits;
-                        while hits != 0 {
-                            let lane = hits.trailing_zeros() as usize;
-                            hits &= hits - 1;
-                            if blocks(packet * 4 + lane, c.t[lane], c.b1[lane], c.b2[lane], r.tmax) {
-                                return true;
-                            }
-                        }
-                        false
+                        c.iter().any(|(lane, t, b1, b2)| blocks(packet * 4 + lane, t, b1, b2, r.tmax))
                     });
                     found
                 });

@@ -51,14 +51,10 @@ pub(super) fn hits(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
         half((x.0.0, y.0.0, z.0.0), (x.1.0, y.1.0, z.1.0)) | half((x.0.1, y.0.1, z.0.1), (x.1.1, y.1.1, z.1.1)) << 4
     };
     let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
-    let mut hit_mask = 0;
-    let mut left = children;
-    while left != 0 {
-        let shift = 8 * left.trailing_zeros();
-        left &= left - 1;
-        hit_mask |= ((child_bits8 >> shift) as u32 & 0xff) << ((bit_index8 >> shift) as u32 & 0xff);
-    }
-    hit_mask
+    super::packet::set_bits(children).fold(0, |hit_mask, child| {
+        let shift = 8 * child;
+        hit_mask | ((child_bits8 >> shift) as u32 & 0xff) << ((bit_index8 >> shift) as u32 & 0xff)
+    })
 }
 
 #[cfg(not(target_arch = "x86_64"))]
@@ -70,17 +66,14 @@ pub(super) fn hits(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tracer::chi2::Rng;
     use obvhs::{BvhBuildParams, cwbvh::builder::build_cwbvh_from_tris, triangle::Triangle};
     use std::time::Duration;
 
     #[test]
     fn every_node_answers_as_obvhs_own_test() {
-        let mut state = 1u64;
-        let mut u = move || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
-        let mut v = || Vec3A::new(u(), u(), u()) * 100.0;
+        let mut rng = Rng::new(1);
+        let mut v = || Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 100.0;
         let tris: Vec<Triangle> = (0..3000)
             .map(|_| {
                 let c = v();
@@ -94,7 +87,7 @@ mod tests {
             let d = (v() - Vec3A::splat(50.0)).normalize_or(Vec3A::X);
             let tmax = if k % 2 == 0 { f32::INFINITY } else { 40.0 };
             let ray = Ray::new(o, d, 0.0, tmax);
-            let oct = (if d.x < 0.0 { 0 } else { 0x0404_0404 }) | (if d.y < 0.0 { 0 } else { 0x0202_0202 }) | (if d.z < 0.0 { 0 } else { 0x0101_0101 });
+            let oct = super::super::wide::octant_inv4(d);
             for node in &bvh.nodes {
                 let mask = hits(node, &ray, oct);
                 assert_eq!(mask, node.intersect_ray(&ray, oct), "ray {k}");

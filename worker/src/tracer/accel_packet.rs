@@ -53,6 +53,26 @@ pub(super) struct Candidates {
     pub(super) b2: Vec4,
 }
 
+impl Candidates {
+    /// (lane, t, b1, b2) of each hit, lowest lane first.
+    #[inline(always)]
+    pub(super) fn iter(&self) -> impl Iterator<Item = (usize, f32, f32, f32)> + '_ {
+        set_bits(self.hits).map(|l| (l, self.t[l], self.b1[l], self.b2[l]))
+    }
+}
+
+/// Indices of the set bits of `mask`, lowest first.
+#[inline(always)]
+pub(super) fn set_bits(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            i
+        })
+    })
+}
+
 /// A ray's transformed vertex in four lanes: x, y sheared, z not yet scaled.
 type Lanes3 = (Vec4, Vec4, Vec4);
 
@@ -105,10 +125,7 @@ impl Packet {
         let inv_det = Vec4::ONE / det;
         let t = t_scaled * inv_det;
         let bound = t_error_bound([p0.0, p1.0, p2.0], [p0.1, p1.1, p2.1], [z0, z1, z2], e, inv_det);
-        let mut near = t.cmple(bound).bitmask() & hits;
-        while near != 0 {
-            let lane = near.trailing_zeros() as usize;
-            near &= near - 1;
+        for lane in set_bits(t.cmple(bound).bitmask() & hits) {
             if !positive_in_f64(ray, &self.triangle(lane)) {
                 hits &= !(1 << lane);
             }
@@ -120,10 +137,8 @@ impl Packet {
 /// Edge functions of the lanes in `lanes` again in f64: the products of f32s are exact there, so
 /// the sign is exact, and neighbours still get opposite values.
 #[cold]
-fn exact_edges(e: &mut [Vec4; 3], p: [Lanes3; 3], mut lanes: u32) {
-    while lanes != 0 {
-        let l = lanes.trailing_zeros() as usize;
-        lanes &= lanes - 1;
+fn exact_edges(e: &mut [Vec4; 3], p: [Lanes3; 3], lanes: u32) {
+    for l in set_bits(lanes) {
         let f = |a: Lanes3, b: Lanes3| (a.0[l] as f64 * b.1[l] as f64 - a.1[l] as f64 * b.0[l] as f64) as f32;
         e[0][l] = f(p[1], p[2]);
         e[1][l] = f(p[2], p[0]);

@@ -1,14 +1,10 @@
 use super::*;
+use crate::tracer::chi2::Rng;
 
-/// SplitMix64 values in [0, 1).
-fn stream(mut state: u64) -> impl FnMut() -> f32 {
-    move || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-    }
+/// Values in [0, 1) from the tests' shared generator.
+fn stream(seed: u64) -> impl FnMut() -> f32 {
+    let mut rng = Rng::new(seed);
+    move || rng.f32()
 }
 
 #[test]

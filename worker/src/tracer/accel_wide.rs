@@ -79,7 +79,7 @@ impl State {
 
 /// The ray's octant as obvhs's node test wants it (its `ray_get_octant_inv4`, private there).
 #[inline(always)]
-fn octant_inv4(dir: Vec3A) -> u32 {
+pub(super) fn octant_inv4(dir: Vec3A) -> u32 {
     (if dir.x < 0.0 { 0 } else { 0x0404_0404 }) | (if dir.y < 0.0 { 0 } else { 0x0202_0202 }) | (if dir.z < 0.0 { 0 } else { 0x0101_0101 })
 }
 
@@ -100,7 +100,7 @@ pub(super) fn walk(bvh: &CwBvh, mut ray: Ray, mut leaf: impl FnMut(&mut Ray, u32
         }
         if state.current_group.y & 0xff00_0000 != 0 {
             let hits_imask = state.current_group.y;
-            let child_index_offset = firstbithigh(hits_imask);
+            let child_index_offset = obvhs::cwbvh::firstbithigh(hits_imask);
             state.current_group.y &= !(1u32 << child_index_offset);
             if state.current_group.y & 0xff00_0000 != 0 {
                 state.stack.push(state.current_group);
@@ -121,10 +121,4 @@ pub(super) fn walk(bvh: &CwBvh, mut ray: Ray, mut leaf: impl FnMut(&mut Ray, u32
             }
         }
     }
-}
-
-/// Index of the highest set bit (obvhs's `firstbithigh`).
-#[inline(always)]
-fn firstbithigh(v: u32) -> u32 {
-    31 - v.leading_zeros()
 }
