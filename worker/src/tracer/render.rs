@@ -11,7 +11,7 @@ use crate::tracer::camera::RasterCamera;
 use crate::tracer::effects::{EffectSet, KernelBits};
 use crate::tracer::film::{PixelSums, Tile, TileSums};
 use crate::tracer::integrator::{Integrator, PathSettings};
-use crate::tracer::sampler::{Sampler, SamplerKind};
+use crate::tracer::sampler::{PixelSeeds, Sampler, SamplerKind};
 use crate::tracer::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -159,8 +159,9 @@ pub(crate) fn render_row<E: EffectSet>(
     let mut stats = RowStats::default();
     for (col, sums) in pixels.iter_mut().enumerate() {
         let px = x0 + col as u32;
+        let seeds = PixelSeeds::new(settings.sampler, settings.seed, px, py);
         for index in samples.clone() {
-            let mut sampler = Sampler::start(settings.sampler, settings.seed, px, py, index);
+            let mut sampler = Sampler::for_pixel(&seeds, index);
             let jitter = sampler.get_2d();
             let ray = if E::DOF { camera.ray_lens(px, py, jitter, sampler.get_2d()) } else { camera.ray(px, py, jitter) };
             let s = integrator.li_for::<E>(ray, &mut sampler);

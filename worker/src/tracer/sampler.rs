@@ -6,7 +6,10 @@
 //! history, thread, or worker, so any worker can render any sample range of any
 //! pixel and produce bit-identical results. A [`Sampler`] is a cheap value
 //! (no tables, no allocation); create one per (pixel, sample) with
-//! [`Sampler::start`] and draw from it.
+//! [`Sampler::start`] and draw from it. A renderer that takes a pixel's samples one
+//! after another keeps a [`PixelSeeds`] for the pixel and starts each sample with
+//! [`Sampler::for_pixel`]: the same numbers, without hashing the pixel and each
+//! dimension's seeds again for every sample.
 //!
 //! # Dimension layout
 //! The dimension counter starts at 0. [`Sampler::get_1d`] consumes one
@@ -35,8 +38,13 @@
 //! never 1, and strata boundaries up to 2^-24 are respected exactly.
 
 use glam::Vec2;
+use std::cell::Cell;
 use std::fmt;
 use std::str::FromStr;
+
+#[path = "sobol.rs"]
+mod sobol;
+use sobol::{laine_karras, sobol_dim1_reversed};
 
 /// Largest f32 below 1 (`1 - 2^-24`): the upper bound of every sample.
 pub const ONE_MINUS_EPSILON: f32 = f32::from_bits(0x3f7f_ffff);
@@ -102,7 +110,7 @@ pub struct Deferred1d(u32);
 
 /// Random numbers for one (pixel, sample index); see the module docs.
 #[derive(Clone, Debug)]
-pub struct Sampler {
+pub struct Sampler<'p> {
     kind: SamplerKind,
     seed: u64,
     pixel_hash: u64,
@@ -110,18 +118,78 @@ pub struct Sampler {
     /// `sample_index.reverse_bits()`, the form the Sobol index shuffle starts from.
     index_reversed: u32,
     dimension: u32,
+    /// The pixel's memo of per-dimension seeds, when the caller keeps one.
+    pixel: Option<&'p PixelSeeds>,
     /// Test-only: every draw is 0 or ONE_MINUS_EPSILON, bit (dimension mod 64) of the pattern.
     #[cfg(test)]
     boundary: Option<u64>,
 }
 
-impl Sampler {
+/// What every sample of one pixel shares: the pixel's hash and, filled in as they are first
+/// drawn, the Sobol seeds of its first [`MEMO_DIMENSIONS`] dimensions. They are functions of
+/// (kind, job seed, pixel, dimension) alone, and a pixel's samples are rendered one after
+/// another, so its later samples look them up instead of hashing again (the same bits).
+#[derive(Debug)]
+pub struct PixelSeeds {
+    kind: SamplerKind,
+    seed: u64,
+    pixel_hash: u64,
+    /// Bit d set: `sobol[d]` holds dimension d's seeds.
+    known: Cell<u64>,
+    sobol: [Cell<[u32; 3]>; MEMO_DIMENSIONS],
+}
+
+/// Dimensions whose seeds a [`PixelSeeds`] keeps: ten bounces of the path tracer's layout.
+pub const MEMO_DIMENSIONS: usize = 64;
+
+impl PixelSeeds {
+    pub fn new(kind: SamplerKind, seed: u64, px: u32, py: u32) -> PixelSeeds {
+        PixelSeeds {
+            kind,
+            seed,
+            pixel_hash: pixel_hash(seed, px, py),
+            known: Cell::new(0),
+            sobol: [const { Cell::new([0; 3]) }; MEMO_DIMENSIONS],
+        }
+    }
+
+    /// Dimension `dim`'s Sobol seeds (`dim` < [`MEMO_DIMENSIONS`]), hashed on first use.
+    fn sobol_seeds(&self, dim: u32) -> [u32; 3] {
+        let bit = 1u64 << dim;
+        if self.known.get() & bit == 0 {
+            self.sobol[dim as usize].set(sobol_seeds(self.pixel_hash, dim, true));
+            self.known.set(self.known.get() | bit);
+        }
+        self.sobol[dim as usize].get()
+    }
+}
+
+fn pixel_hash(seed: u64, px: u32, py: u32) -> u64 {
+    hash2(hash2(PIXEL_SALT, seed), (u64::from(px) << 32) | u64::from(py))
+}
+
+/// The seeds of a Sobol draw at `dim`: the index shuffle's, x's and (if wanted) y's. One 64-bit
+/// hash per (pixel, dim) supplies the first two; y's is re-hashed so the three are independent.
+fn sobol_seeds(pixel_hash: u64, dim: u32, want_y: bool) -> [u32; 3] {
+    let h = hash2(pixel_hash, SOBOL_SALT ^ u64::from(dim));
+    [h as u32, (h >> 32) as u32, if want_y { mix64(h) as u32 } else { 0 }]
+}
+
+impl Sampler<'static> {
     /// A sampler for sample `sample_index` of pixel `(px, py)`, at dimension 0.
-    pub fn start(kind: SamplerKind, seed: u64, px: u32, py: u32, sample_index: u32) -> Sampler {
-        let pixel_hash = hash2(
-            hash2(PIXEL_SALT, seed),
-            (u64::from(px) << 32) | u64::from(py),
-        );
+    pub fn start(kind: SamplerKind, seed: u64, px: u32, py: u32, sample_index: u32) -> Sampler<'static> {
+        Sampler::new(kind, seed, pixel_hash(seed, px, py), sample_index, None)
+    }
+}
+
+impl<'p> Sampler<'p> {
+    /// The same sampler as [`Sampler::start`] for the pixel of `pixel`, drawing its seeds from
+    /// the pixel's memo.
+    pub fn for_pixel(pixel: &'p PixelSeeds, sample_index: u32) -> Sampler<'p> {
+        Sampler::new(pixel.kind, pixel.seed, pixel.pixel_hash, sample_index, Some(pixel))
+    }
+
+    fn new(kind: SamplerKind, seed: u64, pixel_hash: u64, sample_index: u32, pixel: Option<&'p PixelSeeds>) -> Sampler<'p> {
         Sampler {
             kind,
             seed,
@@ -129,6 +197,7 @@ impl Sampler {
             sample_index,
             index_reversed: sample_index.reverse_bits(),
             dimension: 0,
+            pixel,
             #[cfg(test)]
             boundary: None,
         }
@@ -137,7 +206,7 @@ impl Sampler {
     /// Test-only: a sampler whose draw at dimension d is ONE_MINUS_EPSILON if bit d mod 64
     /// of `pattern` is set, else 0 — the boundary values, in every dimension.
     #[cfg(test)]
-    pub fn boundary(pattern: u64) -> Sampler {
+    pub fn boundary(pattern: u64) -> Sampler<'static> {
         Sampler { boundary: Some(pattern), ..Sampler::start(SamplerKind::Independent, 0, 0, 0, 0) }
     }
 
@@ -224,22 +293,25 @@ impl Sampler {
 
     /// Scrambled Sobol coordinates (fixed point, MSB = 1/2) for the pair
     /// seeded at `dim`; `y` is only computed when asked for.
+    #[inline(always)] // want_y is a constant at each call
     fn sobol_bits(&self, dim: u32, want_y: bool) -> (u32, u32) {
-        // One 64-bit hash per (pixel, dim) supplies the shuffle seed and the
-        // x seed; y's seed is re-hashed so the three are independent.
-        let h = hash2(self.pixel_hash, SOBOL_SALT ^ u64::from(dim));
-        // owen_scramble(sample_index, seed), with the index's reversal hoisted out
-        // of the per-draw work (same bits; x86 has no bit-reversal instruction).
-        let index = laine_karras(self.index_reversed, h as u32).reverse_bits();
-        // owen_scramble(sobol_dim0(i)) reverses i twice; skip both reversals (same bits).
-        let x = laine_karras(index, (h >> 32) as u32).reverse_bits();
-        let y = if want_y {
-            // owen_scramble(sobol_dim1(index)), its first reversal folded into the table.
-            laine_karras(sobol_dim1_reversed(index), mix64(h) as u32).reverse_bits()
-        } else {
-            0
+        let [shuffle, seed_x, seed_y] = match self.pixel {
+            Some(pixel) if (dim as usize) < MEMO_DIMENSIONS => pixel.sobol_seeds(dim),
+            _ => sobol_seeds(self.pixel_hash, dim, want_y),
         };
-        (x, y)
+        // owen_scramble(sample_index, shuffle), with the index's reversal hoisted out
+        // of the per-draw work (same bits; x86 has no bit-reversal instruction).
+        let index = laine_karras(self.index_reversed, shuffle).reverse_bits();
+        // owen_scramble(sobol_dim0(index)) reverses index twice; skip both reversals (same bits).
+        let x = laine_karras(index, seed_x);
+        if !want_y {
+            return (x.reverse_bits(), 0);
+        }
+        // owen_scramble(sobol_dim1(index)), its first reversal folded into the table.
+        let y = laine_karras(sobol_dim1_reversed(index), seed_y);
+        // Both final reversals as one of 64 bits: it swaps the halves and reverses each.
+        let both = ((u64::from(y) << 32) | u64::from(x)).reverse_bits();
+        ((both >> 32) as u32, both as u32)
     }
 }
 
@@ -272,98 +344,6 @@ fn hash2(h: u64, v: u64) -> u64 {
 /// Top 24 bits as an exact float: `k * 2^-24 <= ONE_MINUS_EPSILON`.
 fn to_unit(bits: u32) -> f32 {
     (bits >> 8) as f32 * (1.0 / 16_777_216.0)
-}
-
-/// Sobol dimension 0 (van der Corput): the identity generator matrix, i.e.
-/// the index with its bits mirrored about the binary point.
-#[cfg_attr(not(test), allow(dead_code))] // the generator the tests check; sobol_bits inlines it
-fn sobol_dim0(index: u32) -> u32 {
-    index.reverse_bits()
-}
-
-/// Sobol dimension 1: the generator matrix applied a byte at a time through
-/// [`SOBOL_DIM1_BYTES`] (4 lookups instead of a loop over up to 32 bits: this
-/// ran in ~25 % of render time, the index being an Owen-scrambled, i.e.
-/// random, 32-bit number). Same bits as [`sobol_dim1_by_bits`].
-#[cfg_attr(not(test), allow(dead_code))] // the sampler uses the reversed table
-fn sobol_dim1(index: u32) -> u32 {
-    sobol_dim1_reversed(index).reverse_bits()
-}
-
-/// `sobol_dim1(index).reverse_bits()`: bit reversal is linear over GF(2), so the
-/// tables hold reversed direction-vector sums and the lookups XOR as before.
-fn sobol_dim1_reversed(index: u32) -> u32 {
-    let t = &SOBOL_DIM1_BYTES;
-    t[0][(index & 0xff) as usize] ^ t[1][(index >> 8 & 0xff) as usize] ^ t[2][(index >> 16 & 0xff) as usize] ^ t[3][(index >> 24) as usize]
-}
-
-/// `SOBOL_DIM1_BYTES[k][b]`: the XOR of the direction vectors selected by
-/// byte value `b` in byte `k` of the index (the matrix is linear over GF(2),
-/// so the four bytes' contributions XOR together), bit-reversed.
-const SOBOL_DIM1_BYTES: [[u32; 256]; 4] = {
-    let mut t = [[0u32; 256]; 4];
-    let mut k = 0;
-    while k < 4 {
-        let mut b = 0;
-        while b < 256 {
-            t[k][b] = sobol_dim1_by_bits((b as u32) << (8 * k)).reverse_bits();
-            b += 1;
-        }
-        k += 1;
-    }
-    t
-};
-
-/// Sobol dimension 1 via its generator matrix, one direction vector per set
-/// bit (builds the table; the reference the tests compare against).
-const fn sobol_dim1_by_bits(index: u32) -> u32 {
-    let mut bits = index;
-    let mut result = 0;
-    let mut k = 0;
-    while bits != 0 {
-        if bits & 1 != 0 {
-            result ^= SOBOL_DIM1_DIRECTIONS[k];
-        }
-        bits >>= 1;
-        k += 1;
-    }
-    result
-}
-
-/// Direction vectors of Sobol dimension 1: primitive polynomial x + 1 with
-/// m_1 = 1 (Joe–Kuo row `2 1 0 1`). The recurrence m_k = 2m_{k-1} ^ m_{k-1}
-/// becomes v_k = v_{k-1} ^ (v_{k-1} >> 1) in 32-bit fixed point (the Pascal
-/// matrix mod 2): 0x80000000, 0xc0000000, 0xa0000000, 0xf0000000, ...
-const SOBOL_DIM1_DIRECTIONS: [u32; 32] = {
-    let mut v = [0u32; 32];
-    v[0] = 1 << 31;
-    let mut k = 1;
-    while k < 32 {
-        v[k] = v[k - 1] ^ (v[k - 1] >> 1);
-        k += 1;
-    }
-    v
-};
-
-/// Base-2 Owen scramble of a fixed-point value (MSB = first digit), i.e.
-/// Burley's `nested_uniform_scramble`: each bit is flipped by a hash of the
-/// bits above it. Bit reversal turns that into "depends only on lower bits",
-/// which the multiply-xor hash guarantees. The hash is Vegdahl's improved
-/// Laine–Karras permutation (psychopath.io, 2021); its constants are
-/// 0x3d20adea, 0x05526c56, 0x53a22864.
-#[cfg_attr(not(test), allow(dead_code))] // the definition; sobol_bits folds its reversals
-fn owen_scramble(x: u32, seed: u32) -> u32 {
-    laine_karras(x.reverse_bits(), seed).reverse_bits()
-}
-
-/// The hash of [`owen_scramble`] in the bit-reversed domain.
-fn laine_karras(mut v: u32, seed: u32) -> u32 {
-    v ^= v.wrapping_mul(0x3d20_adea);
-    v = v.wrapping_add(seed);
-    v = v.wrapping_mul((seed >> 16) | 1);
-    v ^= v.wrapping_mul(0x0552_6c56);
-    v ^= v.wrapping_mul(0x53a2_2864);
-    v
 }
 
 #[cfg(test)]

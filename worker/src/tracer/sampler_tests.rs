@@ -3,6 +3,7 @@
 //! implementation passes by a wide margin and a broken one cannot.
 
 use super::*;
+use super::sobol::*;
 
 const SOBOL: SamplerKind = SamplerKind::Sobol;
 const INDEPENDENT: SamplerKind = SamplerKind::Independent;
@@ -373,7 +374,7 @@ fn sobol_dim1_by_bytes_equals_the_generator_matrix_bit_by_bit() {
 
 /// The Sobol draw as the module docs define it: an Owen-scrambled index, then Sobol dimensions
 /// 0 and 1 of it, each Owen-scrambled with its own seed (no reversals folded or hoisted).
-fn sobol_bits_as_defined(s: &Sampler, dim: u32) -> (u32, u32) {
+fn sobol_bits_as_defined(s: &Sampler<'_>, dim: u32) -> (u32, u32) {
     let h = hash2(s.pixel_hash, SOBOL_SALT ^ u64::from(dim));
     let index = owen_scramble(s.sample_index, h as u32);
     (owen_scramble(sobol_dim0(index), (h >> 32) as u32), owen_scramble(sobol_dim1(index), mix64(h) as u32))
@@ -385,6 +386,30 @@ fn sobol_draws_equal_the_definition_bit_for_bit() {
         for dim in [0u32, 1, 2, 9, 1000] {
             let s = Sampler::start(SOBOL, 0xabc, px, py, index);
             assert_eq!(s.sobol_bits(dim, true), sobol_bits_as_defined(&s, dim), "pixel ({px}, {py}) sample {index} dim {dim}");
+        }
+    }
+}
+
+#[test]
+fn a_pixels_memo_gives_the_same_draws_as_a_fresh_sampler() {
+    // Mixed 1D and 2D draws, past the memo's dimensions, over samples in and out of order, so a
+    // seed first hashed by a 1D draw (no y) is then used by a 2D draw at the same dimension.
+    let layouts: [&[u8]; 3] = [&[2, 1, 2, 1, 2], &[1, 2, 2, 1, 1, 2], &[2; 40]];
+    for kind in SamplerKind::ALL {
+        for (px, py) in [(0, 0), (17, 3), (4095, 2047)] {
+            let pixel = PixelSeeds::new(kind, 77, px, py);
+            for (n, index) in [5u32, 0, 5, 1, 1 << 20, 2].into_iter().enumerate() {
+                let layout = layouts[n % layouts.len()];
+                let draws = |s: &mut Sampler<'_>| -> Vec<u32> {
+                    layout.iter().flat_map(|&k| if k == 1 { vec![s.get_1d()] } else { s.get_2d().to_array().to_vec() }).map(f32::to_bits).collect()
+                };
+                let fresh = draws(&mut Sampler::start(kind, 77, px, py, index));
+                assert_eq!(draws(&mut Sampler::for_pixel(&pixel, index)), fresh, "{kind} pixel ({px}, {py}) sample {index}");
+            }
+            // Sobol used the memo (up to its last dimension: the third layout reaches past it);
+            // Independent has no seeds to keep.
+            let last = 1u64 << (MEMO_DIMENSIONS - 2);
+            assert_eq!(pixel.known.get() & last != 0, kind == SamplerKind::Sobol, "{kind}");
         }
     }
 }
