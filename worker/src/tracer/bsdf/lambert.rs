@@ -28,8 +28,12 @@ impl Lambert {
         cosine_hemisphere_pdf(wi.z)
     }
 
-    pub(super) fn sample(&self, u: Vec2) -> Option<Vec3> {
-        Some(cosine_hemisphere(u))
+    /// A direction with the f and pdf that `Bsdf::eval` and `Bsdf::pdf` give it (None where
+    /// they give 0: a direction in the horizon).
+    pub(super) fn sample_with_values(&self, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
+        let wi = cosine_hemisphere(u);
+        let (f, pdf) = (self.eval(), self.pdf(wi));
+        (wi.z > 0.0 && pdf > 0.0 && pdf.is_finite() && f.is_finite()).then_some((wi, f, pdf))
     }
 
     pub(super) fn is_black(&self) -> bool {

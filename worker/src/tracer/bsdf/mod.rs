@@ -104,7 +104,8 @@ impl Bsdf {
             return None;
         }
         let wi = match self {
-            Bsdf::Lambert(b) => b.sample(u),
+            // The commonest surface: its f and pdf straight from the lobe, as eval/pdf give them.
+            Bsdf::Lambert(b) => return b.sample_with_values(u).map(|(wi, f, pdf)| BsdfSample { wi, f, pdf, specular: false }),
             Bsdf::Phong(b) => b.sample(wo, u_lobe, u),
             Bsdf::Pbr(b) => b.sample(wo, u_lobe, u),
             // The glass lobes carry their own f and pdf (deltas cannot be re-evaluated).
