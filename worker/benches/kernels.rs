@@ -7,12 +7,17 @@
 //! - `accel/closest` and `accel/occluded`: rays from points on the box's surfaces in random
 //!   directions (the rays a path tracer traces after the camera), watertight test included;
 //! - `path/li`: one whole camera path sample (`mis` + Sobol, the matte kernel the Cornell box
-//!   selects), all of the above and shading.
-use criterion::{Criterion, black_box, criterion_group, criterion_main};
+//!   selects), all of the above and shading;
+//! - `path/tile`: a 16×16 tile at 16 samples per pixel (a unit's default batch) through
+//!   `render_tile` on one thread, as renders take them (a pixel's samples in a row, its sampler
+//!   seeds kept): the kernel closest to whole frames.
+use criterion::{Criterion, Throughput, black_box, criterion_group, criterion_main};
 use glam::{Vec2, Vec3};
 use std::path::Path;
 use tessera_worker::tracer::effects::Kernel;
+use tessera_worker::tracer::film::Tile;
 use tessera_worker::tracer::integrator::{Integrator, PathSettings};
+use tessera_worker::tracer::render::{RenderSettings, render_tile};
 use tessera_worker::tracer::ray::Ray;
 use tessera_worker::tracer::sampler::{Sampler, SamplerKind};
 use tessera_worker::tracer::Scene;
@@ -103,5 +108,25 @@ fn path(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, sampler, accel, path);
+fn tile(c: &mut Criterion) {
+    let scene = cornell();
+    let settings = RenderSettings {
+        width: 256,
+        height: 256,
+        seed: 1,
+        sampler: SamplerKind::Sobol,
+        path: PathSettings::default(),
+        background: Vec3::ZERO,
+        camera: None,
+    };
+    // The middle of the frame: walls, both boxes and the floor.
+    let tile = Tile { x0: 120, y0: 120, w: 16, h: 16 };
+    let one_thread = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
+    let mut g = c.benchmark_group("path");
+    g.throughput(Throughput::Elements(16 * 16 * 16));
+    g.bench_function("tile", |b| b.iter(|| one_thread.install(|| black_box(render_tile(&scene, &settings, tile, 0..16).expect("tile")))));
+    g.finish();
+}
+
+criterion_group!(benches, sampler, accel, path, tile);
 criterion_main!(benches);
