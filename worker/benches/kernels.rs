@@ -120,11 +120,11 @@ fn tile(c: &mut Criterion) {
         camera: None,
     };
     // The middle of the frame: walls, both boxes and the floor.
-    let tile = Tile { x0: 120, y0: 120, w: 16, h: 16 };
+    let (tile, spp) = (Tile { x0: 120, y0: 120, w: 16, h: 16 }, 16);
     let one_thread = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
     let mut g = c.benchmark_group("path");
-    g.throughput(Throughput::Elements(16 * 16 * 16));
-    g.bench_function("tile", |b| b.iter(|| one_thread.install(|| black_box(render_tile(&scene, &settings, tile, 0..16).expect("tile")))));
+    g.throughput(Throughput::Elements(u64::from(tile.w * tile.h * spp)));
+    g.bench_function("tile", |b| b.iter(|| one_thread.install(|| black_box(render_tile(&scene, &settings, tile, 0..spp).expect("tile")))));
     g.finish();
 }
 

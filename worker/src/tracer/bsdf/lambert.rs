@@ -29,11 +29,11 @@ impl Lambert {
     }
 
     /// A direction with the f and pdf that `Bsdf::eval` and `Bsdf::pdf` give it (None where
-    /// they give 0: a direction in the horizon).
+    /// the pdf is 0: a direction in the horizon, where eval gives 0 too).
     pub(super) fn sample_with_values(&self, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
         let wi = cosine_hemisphere(u);
         let (f, pdf) = (self.eval(), self.pdf(wi));
-        (wi.z > 0.0 && pdf > 0.0 && pdf.is_finite() && f.is_finite()).then_some((wi, f, pdf))
+        (pdf > 0.0 && pdf.is_finite() && f.is_finite()).then_some((wi, f, pdf))
     }
 
     pub(super) fn is_black(&self) -> bool {
