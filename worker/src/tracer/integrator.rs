@@ -23,6 +23,7 @@ use crate::tracer::bsdf::{Bsdf, BsdfSample};
 use crate::tracer::effects::{AllEffects, EffectSet};
 use crate::tracer::light::{LightSet, Target};
 use crate::tracer::ray::{Ray, SHADOW_EPSILON};
+use crate::tracer::ray_log::RayLog;
 use crate::tracer::sampler::Sampler;
 use crate::tracer::sampling::power_heuristic;
 use crate::tracer::scene::{NO_LIGHT, Scene};
@@ -105,6 +106,8 @@ pub struct Integrator<'a> {
     pub(crate) scene: &'a Scene,
     pub(crate) lights: LightSet<'a>,
     settings: PathSettings,
+    /// Where every traced ray is recorded, when a benchmark asks (see [`RayLog`]).
+    pub(crate) ray_log: Option<&'a RayLog>,
 }
 
 /// The previous bounce, for MIS weights of emission found by a BSDF-sampled ray.
@@ -120,7 +123,12 @@ struct Bounce {
 impl<'a> Integrator<'a> {
     pub fn new(scene: &'a Scene, background: Vec3, settings: PathSettings) -> Integrator<'a> {
         let lights = LightSet::new(&scene.lights, background, scene.bounds_radius).with_textures(&scene.textures);
-        Integrator { scene, lights, settings }
+        Integrator { scene, lights, settings, ray_log: None }
+    }
+
+    /// This integrator recording every ray it traces in `log`.
+    pub fn with_ray_log(self, log: &'a RayLog) -> Integrator<'a> {
+        Integrator { ray_log: Some(log), ..self }
     }
 
     /// Radiance along `ray` with every effect compiled in.

@@ -119,8 +119,9 @@ impl Light {
                 let q = ErrPoint::from_barycentric(&v, 1.0 - b1 - b2, b1, b2);
                 let d = q.p - p;
                 let dist2 = d.length_squared();
-                let wi = d / dist2.sqrt();
-                let cos_l = cos_at_light(plane, p, dist2);
+                let dist = dist2.sqrt();
+                let wi = d / dist;
+                let cos_l = cos_at_light(plane, p, dist);
                 if !(cos_l > 0.0 || two_sided && cos_l < 0.0) {
                     return None;
                 }
@@ -156,12 +157,14 @@ impl Light {
     }
 }
 
-/// Cosine at an area light of the direction towards `p`, at squared distance `dist2`:
-/// height of `p` above the light's plane over the distance. The height does not depend on
-/// where the sample point landed, so its rounding cannot turn a receiver in the plane
-/// (exactly 0) or just above it (a cosine of 10⁻⁵) into a wrong sign or a 1 % error.
-fn cos_at_light((n, offset): (DVec3, f64), p: Vec3, dist2: f32) -> f32 {
-    ((n.dot(p.as_dvec3()) - offset) / (dist2 as f64).sqrt()) as f32
+/// Cosine at an area light of the direction towards `p`, at distance `dist`: height of `p`
+/// above the light's plane over the distance. The height does not depend on where the sample
+/// point landed, so its rounding cannot turn a receiver in the plane (exactly 0) or just above
+/// it (a cosine of 10⁻⁵) into a wrong sign or a 1 % error. It is found in f64 and rounded once;
+/// the division is f32's (within 1.5 ulp in all; an f64 square root and division cost 1 % of a
+/// Cornell render).
+fn cos_at_light((n, offset): (DVec3, f64), p: Vec3, dist: f32) -> f32 {
+    (n.dot(p.as_dvec3()) - offset) as f32 / dist
 }
 
 fn punctual(p: Vec3, position: Vec3, intensity: Vec3) -> Option<LightSample> {
@@ -262,11 +265,12 @@ impl<'a> LightSet<'a> {
     pub fn pdf_area(&self, light: u32, p: Vec3, q: Vec3) -> f32 {
         match self.scene_lights[light as usize] {
             Light::Triangle { plane, area, two_sided, .. } => {
-                let cos_l = cos_at_light(plane, p, (q - p).length_squared());
+                let dist2 = (q - p).length_squared();
+                let cos_l = cos_at_light(plane, p, dist2.sqrt());
                 if !(cos_l > 0.0 || two_sided && cos_l < 0.0) {
                     return 0.0;
                 }
-                self.pmf[light as usize] * (q - p).length_squared() / (cos_l.abs() * area)
+                self.pmf[light as usize] * dist2 / (cos_l.abs() * area)
             }
             _ => 0.0,
         }

@@ -44,7 +44,7 @@ use std::str::FromStr;
 
 #[path = "sobol.rs"]
 mod sobol;
-use sobol::{laine_karras, sobol_dim1_reversed};
+use sobol::{laine_karras, sobol_dim1_of_reversed};
 
 /// Largest f32 below 1 (`1 - 2^-24`): the upper bound of every sample.
 pub const ONE_MINUS_EPSILON: f32 = f32::from_bits(0x3f7f_ffff);
@@ -301,14 +301,14 @@ impl<'p> Sampler<'p> {
         };
         // owen_scramble(sample_index, shuffle), with the index's reversal hoisted out
         // of the per-draw work (same bits; x86 has no bit-reversal instruction).
-        let index = laine_karras(self.index_reversed, shuffle).reverse_bits();
+        let index_reversed = laine_karras(self.index_reversed, shuffle);
         // owen_scramble(sobol_dim0(index)) reverses index twice; skip both reversals (same bits).
-        let x = laine_karras(index, seed_x);
+        let x = laine_karras(index_reversed.reverse_bits(), seed_x);
         if !want_y {
             return (x.reverse_bits(), 0);
         }
-        // owen_scramble(sobol_dim1(index)), its first reversal folded into the table.
-        let y = laine_karras(sobol_dim1_reversed(index), seed_y);
+        // owen_scramble(sobol_dim1(index)), both reversals around the matrix folded into the table.
+        let y = laine_karras(sobol_dim1_of_reversed(index_reversed), seed_y);
         // Both final reversals as one of 64 bits: it swaps the halves and reverses each.
         let both = ((u64::from(y) << 32) | u64::from(x)).reverse_bits();
         ((both >> 32) as u32, both as u32)

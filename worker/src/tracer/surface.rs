@@ -12,6 +12,7 @@ use crate::tracer::integrator::Integrator;
 use crate::tracer::material::{Material, NormalTexture};
 use crate::tracer::normal_map;
 use crate::tracer::ray::{ErrPoint, Ray};
+use crate::tracer::ray_log::RayQuery;
 use crate::tracer::sampling::Frame;
 use glam::{Vec2, Vec3};
 
@@ -48,6 +49,9 @@ impl Integrator<'_> {
     /// The first surface along `ray` that kernel `E` sees (alpha-cut hits skipped).
     #[inline]
     pub(crate) fn surface<E: EffectSet>(&self, ray: &Ray, u_glass: f32) -> Option<Surface> {
+        if let Some(log) = self.ray_log {
+            log.push(ray, f32::INFINITY, RayQuery::Closest);
+        }
         let hit = if E::ALPHA {
             self.scene.accel.intersect_where(ray, f32::INFINITY, |prim, b1, b2| self.opaque(prim, b1, b2))
         } else {
@@ -124,6 +128,9 @@ impl Integrator<'_> {
     /// Shadow-ray test as kernel `E` sees it (alpha-cut triangles let light through).
     #[inline]
     pub(crate) fn occluded<E: EffectSet>(&self, ray: &Ray, t_max: f32) -> bool {
+        if let Some(log) = self.ray_log {
+            log.push(ray, t_max, RayQuery::Occluded);
+        }
         if E::ALPHA {
             self.scene.accel.occluded_where(ray, t_max, |prim, b1, b2| self.opaque(prim, b1, b2))
         } else {
