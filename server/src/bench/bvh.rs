@@ -20,10 +20,9 @@ use tessera_worker::tracer::camera::Camera;
 use tessera_worker::tracer::material::Material;
 use tessera_worker::tracer::ray::Ray;
 use tessera_worker::tracer::scene::Mesh;
-use tessera_worker::tracer::ray_log::{LoggedRay, RayLog, RayQuery};
-use tessera_worker::tracer::render::render_tile_logged;
 use tessera_worker::tracer::{Scene, render_tile};
-use crate::bench::stock::{StockBvh, ours_logged};
+use crate::bench::same_rays;
+use crate::bench::stock::StockBvh;
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct BvhBench {
@@ -42,6 +41,10 @@ pub struct BvhBench {
     /// The render's samples per pixel.
     #[arg(long, default_value_t = 16)]
     pub spp: u32,
+    /// Rounds of (render, its rays through our BVH, through obvhs's), timed back to back so
+    /// that the machine's drift touches all three alike; the median round is reported.
+    #[arg(long, default_value_t = 5)]
+    pub rounds: usize,
 }
 
 pub fn run(b: &BvhBench) -> anyhow::Result<()> {
@@ -106,43 +109,11 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
         100.0 * rendering / stock_rate
     );
     drop(rays);
-    same_rays(&scene, &stock, b, rendering)
-}
-
-/// The render's own rays, logged by a second (untimed) render, traced alone through our BVH
-/// and through obvhs's: the comparison issue #9 asks for, since random rays from anywhere in
-/// the scene's box are not the rays a path tracer traces (those start on surfaces, and shadow
-/// rays end at a light).
-fn same_rays(scene: &Scene, stock: &StockBvh, b: &BvhBench, rendering: f64) -> anyhow::Result<()> {
-    let logged = log_rays(scene, b.size, b.spp)?;
-    let shadow = logged.iter().filter(|r| r.query == RayQuery::Occluded).count();
-    let (ours_hits, ours_s) = ours_logged(&scene.accel, &logged);
-    let (stock_hits, stock_s) = stock.trace_logged(&logged);
-    let (ours, stock) = (logged.len() as f64 / ours_s, logged.len() as f64 / stock_s);
-    println!(
-        "the render's own {} rays ({:.0} % shadow rays), traced alone on one core: ours {:.2} M rays/s ({ours_hits} hit), obvhs's {:.2} M rays/s ({stock_hits} hit); \
-         path tracing = {:.0} % of obvhs's rate on its own rays (target ≥ 70 %); tracing is {:.0} % of the render's time",
-        logged.len(),
-        100.0 * shadow as f64 / logged.len().max(1) as f64,
-        ours / 1e6,
-        stock / 1e6,
-        100.0 * rendering / stock,
-        100.0 * rendering / ours
-    );
-    Ok(())
-}
-
-/// Every ray of the same render as [`render_one_core`], in the order it traced them.
-fn log_rays(scene: &Scene, size: u32, spp: u32) -> anyhow::Result<Vec<LoggedRay>> {
-    let settings = settings(size)?;
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    let log = RayLog::new();
-    pool.install(|| render_tile_logged(scene, &settings, settings.full_frame(), 0..spp, &log)).map_err(anyhow::Error::msg)?;
-    Ok(log.take())
+    same_rays::run(&scene, &stock, b.size, b.spp, b.rounds)
 }
 
 /// Renders the whole frame on a pool of one thread; returns the rays traced and the seconds.
-fn render_one_core(scene: &Scene, size: u32, spp: u32) -> anyhow::Result<(u64, f64)> {
+pub(crate) fn render_one_core(scene: &Scene, size: u32, spp: u32) -> anyhow::Result<(u64, f64)> {
     let settings = settings(size)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let t = Instant::now();

@@ -2,6 +2,7 @@
 //! keep them working. Figures are printed and written as documents; nothing here asserts speed.
 pub mod accuracy;
 pub mod bvh;
+pub mod same_rays;
 pub mod stock;
 pub mod cpu;
 pub mod frames;

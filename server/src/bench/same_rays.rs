@@ -1,0 +1,72 @@
+//! The last part of `tessera-bench bvh`: the render's own rays, logged by an untimed render,
+//! traced alone through our BVH and through obvhs's, against the render itself. This is the
+//! comparison issue #9 asks for ("obvhs's own traversal benchmark on the same rays"): random
+//! rays from anywhere in the scene's box are not what a path tracer traces (its rays start on
+//! surfaces, camera rays are coherent, and shadow rays end at a light).
+//!
+//! The machine drifts by ±15 % within minutes, more than the differences measured, so the three
+//! timings run back to back in rounds and each round gives its own ratios; the median round
+//! and the range are printed.
+use crate::bench::bvh::render_one_core;
+use crate::bench::overhead::settings;
+use crate::bench::stock::{StockBvh, ours_logged};
+use tessera_worker::tracer::ray_log::{LoggedRay, RayLog, RayQuery};
+use tessera_worker::tracer::{Scene, render_tile_logged};
+
+/// One round's rates, in rays per second on one core.
+#[derive(Clone, Copy, Debug)]
+struct Round {
+    render: f64,
+    ours: f64,
+    stock: f64,
+}
+
+pub fn run(scene: &Scene, stock: &StockBvh, size: u32, spp: u32, rounds: usize) -> anyhow::Result<()> {
+    let logged = log_rays(scene, size, spp)?;
+    let shadow = logged.iter().filter(|r| r.query == RayQuery::Occluded).count();
+    let mut hits = (0, 0);
+    let mut all = Vec::with_capacity(rounds);
+    for _ in 0..rounds.max(1) {
+        let (traced, secs) = render_one_core(scene, size, spp)?;
+        anyhow::ensure!(traced == logged.len() as u64, "the render traced {traced} rays, its log holds {}", logged.len());
+        let (ours_hits, ours_s) = ours_logged(&scene.accel, &logged);
+        let (stock_hits, stock_s) = stock.trace_logged(&logged);
+        hits = (ours_hits, stock_hits);
+        let n = logged.len() as f64;
+        all.push(Round { render: n / secs, ours: n / ours_s, stock: n / stock_s });
+    }
+    println!(
+        "the render's own {} rays ({:.0} % shadow rays) traced alone, {} rounds back to back: ours {} M rays/s ({} hit), obvhs's {} M rays/s ({} hit), the render {} M rays/s",
+        logged.len(),
+        100.0 * shadow as f64 / logged.len().max(1) as f64,
+        all.len(),
+        spread(&all, |r| r.ours / 1e6),
+        hits.0,
+        spread(&all, |r| r.stock / 1e6),
+        hits.1,
+        spread(&all, |r| r.render / 1e6),
+    );
+    println!(
+        "path tracing = {} % of obvhs's rate on its own rays (target ≥ 70 %); tracing is {} % of the render's time",
+        spread(&all, |r| 100.0 * r.render / r.stock),
+        spread(&all, |r| 100.0 * r.render / r.ours),
+    );
+    Ok(())
+}
+
+/// "median (min–max)" of a figure over the rounds.
+fn spread(rounds: &[Round], figure: impl Fn(&Round) -> f64) -> String {
+    let mut v: Vec<f64> = rounds.iter().map(figure).collect();
+    v.sort_by(f64::total_cmp);
+    let precision = if v[v.len() / 2] >= 20.0 { 0 } else { 2 };
+    format!("{:.p$} ({:.p$}–{:.p$})", v[v.len() / 2], v[0], v[v.len() - 1], p = precision)
+}
+
+/// Every ray of the render [`render_one_core`] times, in the order it traced them.
+fn log_rays(scene: &Scene, size: u32, spp: u32) -> anyhow::Result<Vec<LoggedRay>> {
+    let settings = settings(size)?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let log = RayLog::new();
+    pool.install(|| render_tile_logged(scene, &settings, settings.full_frame(), 0..spp, &log)).map_err(anyhow::Error::msg)?;
+    Ok(log.take())
+}
