@@ -67,31 +67,18 @@ pub fn render_tile_kernel(
     cancel: &AtomicBool,
     kernel: Option<KernelBits>,
 ) -> Result<Option<TileSums>, String> {
-    render_unit(scene, settings, tile, samples, cancel, kernel, None)
+    let plan = UnitPlan::new(scene, settings, tile, kernel)?;
+    let integrator = Integrator::new(scene, settings.background, plan.path);
+    Ok(dispatch_kernel!(plan.kernel, render_rows(&integrator, &plan.camera, settings, tile, samples, cancel)))
 }
 
 /// As [`render_tile`], recording every ray traced in `log` (for benchmarks: the same rays can
 /// then be traced alone, see [`RayLog`]).
 pub fn render_tile_logged(scene: &Scene, settings: &RenderSettings, tile: Tile, samples: Range<u32>, log: &RayLog) -> Result<TileSums, String> {
+    let plan = UnitPlan::new(scene, settings, tile, None)?;
+    let integrator = Integrator::new(scene, settings.background, plan.path).with_ray_log(log);
     let never = AtomicBool::new(false);
-    Ok(render_unit(scene, settings, tile, samples, &never, None, Some(log))?.expect("never canceled"))
-}
-
-fn render_unit(
-    scene: &Scene,
-    settings: &RenderSettings,
-    tile: Tile,
-    samples: Range<u32>,
-    cancel: &AtomicBool,
-    kernel: Option<KernelBits>,
-    log: Option<&RayLog>,
-) -> Result<Option<TileSums>, String> {
-    let plan = UnitPlan::new(scene, settings, tile, kernel)?;
-    let mut integrator = Integrator::new(scene, settings.background, plan.path);
-    if let Some(log) = log {
-        integrator = integrator.with_ray_log(log);
-    }
-    Ok(dispatch_kernel!(plan.kernel, render_rows(&integrator, &plan.camera, settings, tile, samples, cancel)))
+    Ok(dispatch_kernel!(plan.kernel, render_rows(&integrator, &plan.camera, settings, tile, samples, &never)).expect("never canceled"))
 }
 
 /// What a unit's rows share, worked out once: the camera bound to the image, the path
