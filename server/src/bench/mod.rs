@@ -2,9 +2,9 @@
 //! keep them working. Figures are printed and written as documents; nothing here asserts speed.
 pub mod accuracy;
 pub mod bvh;
-pub mod same_rays;
-pub mod stock;
 pub mod cpu;
 pub mod frames;
 pub mod mitsuba;
 pub mod overhead;
+pub mod same_rays;
+pub mod stock;
