@@ -170,12 +170,12 @@ impl<'a> Integrator<'a> {
                 bs
             } else {
                 l += beta * self.emitted(est, depth, prev, &s);
-                let (u_pick, u_light) = (sampler.get_1d(), sampler.get_2d());
+                let u_light = sampler.get_2d();
                 let (d_lobe, u_dir) = (sampler.defer_1d(), sampler.get_2d());
                 let Some(bsdf) = s.bsdf.filter(|_| depth < self.settings.max_depth) else { break };
                 let delta = E::GLASS && bsdf.is_specular();
                 if matches!(est, Estimator::Light | Estimator::Mis) && !delta && !self.lights.is_empty() {
-                    l += beta * self.direct::<E>(est, &s, &bsdf, medium, u_pick, u_light, &mut rays);
+                    l += beta * self.direct::<E>(est, &s, &bsdf, medium, u_light, &mut rays);
                 }
                 let u_lobe = if bsdf.chooses_lobes() { sampler.deferred(d_lobe) } else { 0.0 };
                 let Some(bs) = bsdf.sample(s.wo, u_lobe, u_dir) else { break };
@@ -233,9 +233,8 @@ impl<'a> Integrator<'a> {
     }
 
     /// Next-event estimation: one light sample, MIS-weighted for `Mis`.
-    #[allow(clippy::too_many_arguments)] // the path state the light sample needs, all by value
-    fn direct<E: EffectSet>(&self, est: Estimator, s: &Surface, bsdf: &Bsdf, medium: Vec3, u_pick: f32, u: Vec2, rays: &mut u32) -> Vec3 {
-        let Some(ls) = self.lights.sample_for::<E>(s.p.p, s.frame.n, u_pick, u) else { return Vec3::ZERO };
+    fn direct<E: EffectSet>(&self, est: Estimator, s: &Surface, bsdf: &Bsdf, medium: Vec3, u: Vec2, rays: &mut u32) -> Vec3 {
+        let Some(ls) = self.lights.sample_for::<E>(s.p.p, s.frame.n, u) else { return Vec3::ZERO };
         let wi = s.frame.to_local(ls.wi);
         let side = ls.wi.dot(s.ng);
         // Only glass sees lights behind the surface, and only where both normals agree.

@@ -26,6 +26,7 @@ use crate::tracer::effects::{AllEffects, EffectSet};
 pub use crate::tracer::texture::EmissiveTexture;
 use crate::tracer::texture::Texture;
 use crate::tracer::ray::ErrPoint;
+use crate::tracer::sampler::ONE_MINUS_EPSILON;
 use crate::tracer::sampling::{Frame, cosine_hemisphere, luminance, uniform_triangle};
 use glam::{DVec3, Vec2, Vec3};
 use std::f32::consts::PI;
@@ -240,23 +241,36 @@ impl<'a> LightSet<'a> {
         self.scene_lights.get(i).unwrap_or_else(|| self.background.as_ref().expect("index in range"))
     }
 
-    /// Picks a light by power with `u_pick` and samples it from `p` with shading normal `n`.
-    pub fn sample(&self, p: Vec3, n: Vec3, u_pick: f32, u: Vec2) -> Option<LightSample> {
-        self.sample_for::<AllEffects>(p, n, u_pick, u)
+    /// Picks a light by power with `u.x` and samples it from `p` with shading normal `n`.
+    pub fn sample(&self, p: Vec3, n: Vec3, u: Vec2) -> Option<LightSample> {
+        self.sample_for::<AllEffects>(p, n, u)
     }
 
     /// [`LightSet::sample`] as kernel `E` sees the lights.
+    ///
+    /// The light is chosen by where `u.x` falls in the cumulative choice probabilities, and
+    /// `u.x` is then stretched from that interval back to [0, 1) for the light's own sample
+    /// (Mitsuba's `sample_reuse`). A stratified 2D pattern thus stays stratified over the union
+    /// of the lights — a quad light is two triangles, and a separate choice dimension would
+    /// hand each a random half of a pixel's points — and a bounce draws one number fewer.
     #[inline]
-    pub fn sample_for<E: EffectSet>(&self, p: Vec3, n: Vec3, u_pick: f32, u: Vec2) -> Option<LightSample> {
+    pub fn sample_for<E: EffectSet>(&self, p: Vec3, n: Vec3, u: Vec2) -> Option<LightSample> {
+        let (i, x) = self.choose(u.x)?;
+        let mut s = self.light(i).sample::<E>(p, n, Vec2::new(x, u.y), self.textures)?;
+        s.pdf *= self.pmf[i];
+        Some(s)
+    }
+
+    /// The light `x` chooses, and `x` stretched from its interval of the cdf to [0, 1).
+    fn choose(&self, x: f32) -> Option<(usize, f32)> {
         let last = self.cdf.len().checked_sub(1)?;
-        let i = self.cdf.partition_point(|&c| c <= u_pick).min(last);
+        let i = self.cdf.partition_point(|&c| c <= x).min(last);
         let pick = self.pmf[i];
         if pick == 0.0 {
             return None;
         }
-        let mut s = self.light(i).sample::<E>(p, n, u, self.textures)?;
-        s.pdf *= pick;
-        Some(s)
+        let below = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        Some((i, ((x - below) / pick).clamp(0.0, ONE_MINUS_EPSILON)))
     }
 
     /// Solid-angle density with which `sample` returns the point `q` (normal `ng`) of area light

@@ -20,10 +20,31 @@ fn lights_are_chosen_in_proportion_to_power() {
     let set = LightSet::new(&lights, Vec3::ZERO, 10.0);
     assert!((set.pmf[0] - 0.25).abs() < 1e-6 && (set.pmf[1] - 0.75).abs() < 1e-6);
     let picks = (0..1000).filter(|i| {
-        let s = set.sample(Vec3::ZERO, Vec3::Y, (*i as f32 + 0.5) / 1000.0, Vec2::splat(0.3)).unwrap();
+        let s = set.sample(Vec3::ZERO, Vec3::Y, Vec2::new((*i as f32 + 0.5) / 1000.0, 0.3)).unwrap();
         s.li.x == 3.0
     });
     assert_eq!(picks.count(), 750);
+}
+
+#[test]
+fn the_choice_hands_each_light_its_share_of_x_stretched_to_the_whole_range() {
+    let lights = [tri_light(1.0, 1.0), tri_light(2.0, 3.0)];
+    let set = LightSet::new(&lights, Vec3::ZERO, 10.0);
+    let n = 4000;
+    let mut stretched = [Vec::new(), Vec::new()];
+    for k in 0..n {
+        let (i, x) = set.choose((k as f32 + 0.5) / n as f32).expect("a light");
+        stretched[i].push(x);
+    }
+    // Evenly spaced points in a light's interval stay evenly spaced over [0, 1): the
+    // stratification of x carries over to each light's own sample.
+    for xs in &stretched {
+        let m = xs.len() as f32;
+        for (j, x) in xs.iter().enumerate() {
+            assert!((x - (j as f32 + 0.5) / m).abs() < 1e-4, "{j}th of {m}: {x}");
+        }
+    }
+    assert_eq!((stretched[0].len(), stretched[1].len()), (1000, 3000));
 }
 
 #[test]
@@ -33,7 +54,7 @@ fn area_pdf_agrees_with_the_sampled_pdf() {
     let p = Vec3::new(0.1, 0.0, -0.2);
     for k in 0..64 {
         let u = Vec2::new((k % 8) as f32 / 8.0 + 0.03, (k / 8) as f32 / 8.0 + 0.05);
-        let Some(s) = set.sample(p, Vec3::Y, (k as f32 + 0.5) / 64.0, u) else { continue };
+        let Some(s) = set.sample(p, Vec3::Y, u) else { continue };
         let expected = match s.target {
             Target::Point { p: q, .. } => {
                 let light = if s.li.x == 1.0 { 0 } else { 1 };
@@ -50,7 +71,7 @@ fn one_sided_emitters_are_dark_from_behind() {
     let lights = [tri_light(-1.0, 1.0)];
     let set = LightSet::new(&lights, Vec3::ZERO, 10.0);
     // The light at y = −1 faces −Y, away from the origin.
-    assert!(set.sample(Vec3::ZERO, Vec3::NEG_Y, 0.5, Vec2::splat(0.2)).is_none());
+    assert!(set.sample(Vec3::ZERO, Vec3::NEG_Y, Vec2::splat(0.2)).is_none());
 }
 
 #[test]
