@@ -262,6 +262,11 @@ impl<'a> LightSet<'a> {
     }
 
     /// The light `x` chooses, and `x` stretched from its interval of the cdf to [0, 1).
+    ///
+    /// The stretch keeps the resolution x had within the interval: samples are multiples of
+    /// 2⁻²⁴, so a light chosen with probability p gets about 2²⁴·p distinct x positions (still
+    /// about 17 at p = 10⁻⁶, with y at full resolution) — the same grain that bounds which
+    /// lights a separate 24-bit choice dimension could pick at all.
     fn choose(&self, x: f32) -> Option<(usize, f32)> {
         let last = self.cdf.len().checked_sub(1)?;
         let i = self.cdf.partition_point(|&c| c <= x).min(last);
