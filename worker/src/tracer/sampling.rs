@@ -89,12 +89,12 @@ pub fn uniform_hemisphere_rejection(next: &mut impl FnMut() -> f32) -> Vec3 {
 }
 
 /// Barycentrics (b1, b2) uniform over a triangle, by the seed's fold of the unit square.
-/// The fold is a coin flip per sample, so it is a bit select, not a branch the CPU would
-/// mispredict half the time (same values).
 pub fn uniform_triangle(u: Vec2) -> (f32, f32) {
-    let fold = 0u32.wrapping_sub(u32::from(u.x + u.y > 1.0));
-    let pick = |keep: f32, folded: f32| f32::from_bits(keep.to_bits() & !fold | folded.to_bits() & fold);
-    (pick(u.x, 1.0 - u.x), pick(u.y, 1.0 - u.y))
+    if u.x + u.y > 1.0 {
+        (1.0 - u.x, 1.0 - u.y)
+    } else {
+        (u.x, u.y)
+    }
 }
 
 /// Phong lobe around +z: cos α = u.x^(1/(n+1)), φ = 2π u.y; needs n > −1.
