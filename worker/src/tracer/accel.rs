@@ -27,7 +27,8 @@ pub enum BvhKind {
 }
 
 enum Tree {
-    Wide(CwBvh),
+    /// obvhs's wide tree and each of its nodes' child boxes decoded to f32 (`accel_node.rs`).
+    Wide(CwBvh, Vec<node::ChildBoxes>),
     Binary(Bvh2),
     Empty,
 }
@@ -85,14 +86,14 @@ impl Accel {
                     (to_wide(&bvh2, params), bvh2)
                 };
                 match std::panic::catch_unwind(std::panic::AssertUnwindSafe(build)) {
-                    Ok((bvh, bvh2)) if wide_depth(&bvh) < WIDE_STACK => (Tree::Wide(bvh), Some(bvh2)),
+                    Ok((bvh, bvh2)) if wide_depth(&bvh) < WIDE_STACK => (Tree::wide(bvh), Some(bvh2)),
                     _ => (Tree::Binary(obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time)), None),
                 }
             }
             BvhKind::Binary => (Tree::Binary(obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time)), None),
         };
         let refit = match (&tree, bvh2) {
-            (Tree::Wide(_), Some(bvh2)) => Some(refit::RefitBase { keep: keep.clone(), bvh2 }),
+            (Tree::Wide(..), Some(bvh2)) => Some(refit::RefitBase { keep: keep.clone(), bvh2 }),
             (Tree::Binary(b), _) => Some(refit::RefitBase { keep: keep.clone(), bvh2: b.clone() }),
             _ => None,
         };
@@ -101,7 +102,7 @@ impl Accel {
 
     fn assemble(tree: Tree, tris: &[[Vec3; 3]], keep: &[u32], scale: f32, refit: Option<refit::RefitBase>) -> Accel {
         let slots = match &tree {
-            Tree::Wide(b) => &b.primitive_indices,
+            Tree::Wide(b, _) => &b.primitive_indices,
             Tree::Binary(b) => &b.primitive_indices,
             Tree::Empty => return Accel { tree, tris: Packets::new(&[]), prim_ids: Vec::new(), scale, refit: None },
         };
@@ -134,7 +135,7 @@ impl Accel {
             }
         };
         match &self.tree {
-            Tree::Wide(b) => wide::walk(b, obvhs_ray, |r, base, bits| {
+            Tree::Wide(b, boxes) => wide::walk(b, boxes, obvhs_ray, |r, base, bits| {
                 for_packets(base, bits, |packet, lanes| {
                     for (lane, t, b1, b2) in self.tris.test(&wt, packet, lanes, r.tmax).iter() {
                         consider(&mut r.tmax, packet * 4 + lane, t, b1, b2);
@@ -171,9 +172,9 @@ impl Accel {
         let Some((obvhs_ray, wt)) = self.tree_ray(ray, t_max) else { return false };
         let blocks = |slot: usize, t: f32, b1: f32, b2: f32, tmax: f32| t < tmax && keep(self.prim_ids[slot], b1, b2);
         match &self.tree {
-            Tree::Wide(b) => {
+            Tree::Wide(b, boxes) => {
                 let mut found = false;
-                wide::walk(b, obvhs_ray, |r, base, bits| {
+                wide::walk(b, boxes, obvhs_ray, |r, base, bits| {
                     found = for_packets(base, bits, |packet, lanes| {
                         let c = self.tris.test(&wt, packet, lanes, r.tmax);
                         c.iter().any(|(lane, t, b1, b2)| blocks(packet * 4 + lane, t, b1, b2, r.tmax))
@@ -208,6 +209,13 @@ impl Accel {
             tmax,
         };
         Some((r, WatertightRay::new(origin, ray.dir)))
+    }
+}
+
+impl Tree {
+    fn wide(bvh: CwBvh) -> Tree {
+        let boxes = bvh.nodes.iter().map(node::ChildBoxes::decode).collect();
+        Tree::Wide(bvh, boxes)
     }
 }
 

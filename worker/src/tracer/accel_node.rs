@@ -1,55 +1,108 @@
-//! The wide-BVH node test: obvhs's `CwBvhNode::intersect_ray_simd`, the same arithmetic on the
-//! same lanes (so the same hits, bit for bit), with its two costs cut on x86_64:
-//! - each node's quantized child planes (u8) became f32 by 24 scalar conversions and inserts
-//!   ("the most expensive part", says obvhs); here eight bytes widen to two vectors of four with
-//!   SSE2 unpacks and one conversion each;
-//! - the hit children were gathered by a branch per child slot (a coin flip per node on
-//!   incoherent rays); here only the set bits of the hit mask are visited.
+//! The wide-BVH node test, on child boxes decoded to f32 once when the tree is built.
 //!
-//! Elsewhere obvhs's own test is used.
+//! obvhs stores a node's eight child boxes as bytes on a per-node grid (origin `p`, power-of-two
+//! cell `e`) and decodes them in every node test: 24 byte-to-float conversions, the grid's scale,
+//! and a branch per axis on the ray's direction to pick the near plane. On the Cornell box that
+//! decoding was most of a node test's ≈ 185 instructions (callgrind, 2026-12-03). Here each node
+//! also has its [`ChildBoxes`]: the same boxes, decoded exactly (in f64) and rounded outward to
+//! f32, 192 bytes beside obvhs's 80. The test is then a plain slab test, four children per SIMD
+//! register, with the near plane chosen by an index computed once per ray ([`Slabs`]).
+//!
+//! Robustness: the planes enclose obvhs's boxes, and the far distance is scaled by 1 + 2γ₃ as in
+//! pbrt-v4's `Bounds3::IntersectP`, so rounding in (plane − origin) · (1/d) never culls a box the
+//! ray enters. Which boxes are culled only changes the work done: the hit is the closest
+//! (t, triangle index) whatever the walk ([`super::Accel::intersect_where`]).
+//!
+//! Elsewhere than x86_64, obvhs's own test is used.
+#[cfg(test)]
 use glam::Vec3A;
 use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::ray::Ray;
 
-/// obvhs's node test skips children nearer than this (its private `EPSILON`).
-#[cfg(target_arch = "x86_64")]
+/// A node's child boxes in tree space: `planes[axis][0]` holds the eight low planes,
+/// `planes[axis][1]` the high ones; lane i is child slot i.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub(super) struct ChildBoxes {
+    planes: [[[f32; ROW]; 2]; 3],
+}
+
+impl ChildBoxes {
+    /// The boxes of `node`'s children, `p + q·e` per plane, exact in f64 and rounded outward.
+    pub(super) fn decode(node: &CwBvhNode) -> ChildBoxes {
+        let e = node.compute_extent();
+        let q = [[node.child_min_x, node.child_max_x], [node.child_min_y, node.child_max_y], [node.child_min_z, node.child_max_z]];
+        let plane = |axis: usize, side: usize, child: usize| {
+            let exact = f64::from(node.p[axis]) + f64::from(q[axis][side][child]) * f64::from(e[axis]);
+            outward(exact, side == 1)
+        };
+        ChildBoxes { planes: std::array::from_fn(|axis| std::array::from_fn(|side| std::array::from_fn(|child| plane(axis, side, child)))) }
+    }
+
+    /// Child `child`'s box as (min, max) corners.
+    #[cfg(test)]
+    pub(super) fn child(&self, child: usize) -> (Vec3A, Vec3A) {
+        let corner = |side: usize| Vec3A::from_array(std::array::from_fn(|axis| self.planes[axis][side][child]));
+        (corner(0), corner(1))
+    }
+}
+
+/// `x` as an f32 no smaller (`up`) or no larger than it.
+fn outward(x: f64, up: bool) -> f32 {
+    let f = x as f32;
+    match f64::from(f) {
+        r if up && r < x => f.next_up(),
+        r if !up && r > x => f.next_down(),
+        _ => f,
+    }
+}
+
+/// f32s in a row of [`ChildBoxes`] planes (one plane per child slot).
+const ROW: usize = 8;
+
+/// obvhs's node test skips children nearer than this (its private `EPSILON`); so does ours.
 const NEAREST: f32 = 0.0001;
+
+/// 1 + 2γ₃, rounded up: the far distance's allowance for rounding (pbrt-v4).
+const FAR_SCALE: f32 = 1.0 + 2.0 * crate::tracer::ray::gamma(3);
+
+/// Per-ray constants of the node test: origin and reciprocal direction in every lane, and for
+/// each axis which side's planes the ray meets first.
+#[cfg(target_arch = "x86_64")]
+pub(super) struct Slabs {
+    origin: [std::arch::x86_64::__m128; 3],
+    inv: [std::arch::x86_64::__m128; 3],
+    /// Per axis, the offset in f32s of the row of planes the ray meets first in a
+    /// [`ChildBoxes`] (the high planes where the reciprocal direction is negative, −0 included),
+    /// and of the other row.
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Slabs {
+    #[inline(always)]
+    pub(super) fn new(ray: &Ray) -> Slabs {
+        use std::arch::x86_64::_mm_set1_ps;
+        let (o, inv) = (ray.origin, ray.inv_direction);
+        // SAFETY: SSE2 is part of every x86_64 target; no memory is touched.
+        let splat = |v: f32| unsafe { _mm_set1_ps(v) };
+        let high_first = [inv.x, inv.y, inv.z].map(|v| usize::from(v.is_sign_negative()));
+        Slabs {
+            origin: [splat(o.x), splat(o.y), splat(o.z)],
+            inv: [splat(inv.x), splat(inv.y), splat(inv.z)],
+            near: [0, 1, 2].map(|axis| ROW * (2 * axis + high_first[axis])),
+            far: [0, 1, 2].map(|axis| ROW * (2 * axis + 1 - high_first[axis])),
+        }
+    }
+}
 
 /// The hit mask obvhs's `intersect_ray` returns: hit inner children in the high byte, the
 /// candidate triangles of hit leaf children in the low 24 bits.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(super) fn hits(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
-    use std::arch::x86_64::*;
-    let dir_inv = node.compute_extent() * ray.inv_direction;
-    let origin = (Vec3A::from(node.p) - ray.origin) * ray.inv_direction;
-    // SAFETY: SSE2 is part of every x86_64 target; the loads read 8 bytes of 8-byte arrays.
-    let children = unsafe {
-        let zero = _mm_setzero_si128();
-        // Children 0–3 and 4–7 of one plane, as f32 (exact: integers below 256).
-        let planes = |q: &[u8; 8]| {
-            let words = _mm_unpacklo_epi8(_mm_loadl_epi64(q.as_ptr().cast()), zero);
-            (_mm_cvtepi32_ps(_mm_unpacklo_epi16(words, zero)), _mm_cvtepi32_ps(_mm_unpackhi_epi16(words, zero)))
-        };
-        // Entry and exit distances along one axis, near plane first for the ray's direction.
-        let axis = |lo: &[u8; 8], hi: &[u8; 8], negative: bool, d: f32, o: f32| {
-            let (lo, hi) = (planes(lo), planes(hi));
-            let (near, far) = if negative { (hi, lo) } else { (lo, hi) };
-            let (d, o) = (_mm_set1_ps(d), _mm_set1_ps(o));
-            let t = |q: __m128| _mm_add_ps(_mm_mul_ps(q, d), o);
-            ((t(near.0), t(near.1)), (t(far.0), t(far.1)))
-        };
-        let x = axis(&node.child_min_x, &node.child_max_x, ray.direction.x < 0.0, dir_inv.x, origin.x);
-        let y = axis(&node.child_min_y, &node.child_max_y, ray.direction.y < 0.0, dir_inv.y, origin.y);
-        let z = axis(&node.child_min_z, &node.child_max_z, ray.direction.z < 0.0, dir_inv.z, origin.z);
-        let (nearest, farthest) = (_mm_set1_ps(NEAREST), _mm_set1_ps(ray.tmax));
-        let half = |tn: (__m128, __m128, __m128), tf: (__m128, __m128, __m128)| {
-            let t_min = _mm_max_ps(_mm_max_ps(tn.0, _mm_max_ps(tn.1, tn.2)), nearest);
-            let t_max = _mm_min_ps(_mm_min_ps(tf.0, _mm_min_ps(tf.1, tf.2)), farthest);
-            _mm_movemask_ps(_mm_cmple_ps(t_min, t_max)) as u32
-        };
-        half((x.0.0, y.0.0, z.0.0), (x.1.0, y.1.0, z.1.0)) | half((x.0.1, y.0.1, z.0.1), (x.1.1, y.1.1, z.1.1)) << 4
-    };
+pub(super) fn hits(node: &CwBvhNode, boxes: &ChildBoxes, slabs: &Slabs, ray: &Ray, oct_inv4: u32) -> u32 {
+    let children = entered(boxes, slabs, ray.tmax, 0) | entered(boxes, slabs, ray.tmax, 4) << 4;
     let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
     super::packet::set_bits(children).fold(0, |hit_mask, child| {
         let shift = 8 * child;
@@ -57,45 +110,47 @@ pub(super) fn hits(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
     })
 }
 
+/// Bit i set: the ray enters child `first + i`'s box on [NEAREST, t_max] (i < 4).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn entered(boxes: &ChildBoxes, slabs: &Slabs, t_max: f32, first: usize) -> u32 {
+    use std::arch::x86_64::*;
+    let planes = boxes.planes.as_ptr().cast::<f32>();
+    // SAFETY: SSE2 is part of every x86_64 target. Each load reads four f32s at `row + first`:
+    // rows start at multiples of ROW (`Slabs::new` makes them, below 6·ROW) and `first` is 0 or
+    // 4, so the four lie inside the 48 f32s of `planes`, 16-byte aligned (the struct is 64-byte
+    // aligned).
+    unsafe {
+        let distance = |axis: usize, row: usize| {
+            let plane = _mm_load_ps(planes.add(row + first));
+            _mm_mul_ps(_mm_sub_ps(plane, slabs.origin[axis]), slabs.inv[axis])
+        };
+        let ([near_x, near_y, near_z], [far_x, far_y, far_z]) = (slabs.near, slabs.far);
+        let (nx, ny, nz) = (distance(0, near_x), distance(1, near_y), distance(2, near_z));
+        let (fx, fy, fz) = (distance(0, far_x), distance(1, far_y), distance(2, far_z));
+        let t_min = _mm_max_ps(_mm_max_ps(nx, ny), _mm_max_ps(nz, _mm_set1_ps(NEAREST)));
+        let t_far = _mm_mul_ps(_mm_min_ps(_mm_min_ps(fx, fy), fz), _mm_set1_ps(FAR_SCALE));
+        _mm_movemask_ps(_mm_cmple_ps(t_min, _mm_min_ps(t_far, _mm_set1_ps(t_max)))) as u32
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+pub(super) struct Slabs;
+
+#[cfg(not(target_arch = "x86_64"))]
+impl Slabs {
+    #[inline(always)]
+    pub(super) fn new(_: &Ray) -> Slabs {
+        Slabs
+    }
+}
+
 #[cfg(not(target_arch = "x86_64"))]
 #[inline(always)]
-pub(super) fn hits(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
+pub(super) fn hits(node: &CwBvhNode, _: &ChildBoxes, _: &Slabs, ray: &Ray, oct_inv4: u32) -> u32 {
     node.intersect_ray(ray, oct_inv4)
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::tracer::chi2::Rng;
-    use obvhs::{BvhBuildParams, cwbvh::builder::build_cwbvh_from_tris, triangle::Triangle};
-    use std::time::Duration;
-
-    #[test]
-    fn every_node_answers_as_obvhs_own_test() {
-        let mut rng = Rng::new(1);
-        let mut v = || Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 100.0;
-        let tris: Vec<Triangle> = (0..3000)
-            .map(|_| {
-                let c = v();
-                Triangle { v0: c, v1: c + v() * 0.05, v2: c + v() * 0.05 }
-            })
-            .collect();
-        let bvh = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut Duration::default());
-        let (mut tested, mut entered) = (0, 0);
-        for k in 0..2000 {
-            let o = v() * 1.4 - Vec3A::splat(20.0);
-            let d = (v() - Vec3A::splat(50.0)).normalize_or(Vec3A::X);
-            let tmax = if k % 2 == 0 { f32::INFINITY } else { 40.0 };
-            let ray = Ray::new(o, d, 0.0, tmax);
-            let oct = super::super::wide::octant_inv4(d);
-            for node in &bvh.nodes {
-                let mask = hits(node, &ray, oct);
-                assert_eq!(mask, node.intersect_ray(&ray, oct), "ray {k}");
-                tested += 1;
-                entered += usize::from(mask != 0);
-            }
-        }
-        // Both answers were exercised.
-        assert!(tested > 100_000 && entered > 1000 && entered < tested, "{entered} of {tested}");
-    }
-}
+#[path = "accel_node_tests.rs"]
+mod tests;

@@ -30,12 +30,12 @@ impl Accel {
         let mut bvh2 = base.bvh2.clone();
         refit_boxes(&mut bvh2, &obvhs_tris);
         let tree = match &self.tree {
-            Tree::Wide(_) => {
+            Tree::Wide(..) => {
                 let wide = to_wide(&bvh2, BvhBuildParams::medium_build());
                 if wide_depth(&wide) >= WIDE_STACK {
                     return None;
                 }
-                Tree::Wide(wide)
+                Tree::wide(wide)
             }
             Tree::Binary(_) => Tree::Binary(bvh2.clone()),
             Tree::Empty => return None,

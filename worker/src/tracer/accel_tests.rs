@@ -220,3 +220,51 @@ fn bvh_build_vs_refit() {
     println!("100k triangles, wide BVH, 1 thread: build {build_ms:.1} ms, refit {refit_ms:.1} ms");
     println!("200k random rays: rebuilt tree {rebuilt_ms:.1} ms, refitted tree {refit_trace_ms:.1} ms");
 }
+
+/// A direction component of −0.0 is a zero like +0.0: its reciprocal is −MAX, so a slab test
+/// that picked the near plane by `d < 0` (false for −0.0) would take the far one and miss.
+#[test]
+fn negative_zero_direction_components_hit_like_positive_zeros() {
+    let tris = grid(4);
+    for kind in [BvhKind::Wide, BvhKind::Binary] {
+        let accel = Accel::build(&tris, kind);
+        for (i, j) in [(1, 1), (3, 5), (6, 2), (5, 7)] {
+            let target = Vec3::new(i as f32 / 8.0 + 0.01, j as f32 / 8.0 + 0.02, 0.0);
+            for dir in [Vec3::new(-0.0, -0.0, -1.0), Vec3::new(0.0, -0.0, -1.0), Vec3::new(-0.0, 0.0, -1.0)] {
+                let ray = Ray::new(target + Vec3::Z, dir);
+                let hit = accel.intersect(&ray, f32::INFINITY);
+                assert!(hit.is_some_and(|h| (h.t - 1.0).abs() < 1e-6), "{kind:?}: ray {ray:?} missed");
+                assert!(accel.occluded(&ray, 2.0), "{kind:?}: shadow ray {ray:?} passed");
+            }
+        }
+    }
+}
+
+/// Rays along an axis (both other components ±0) through a tree several levels deep find what
+/// testing every triangle finds. obvhs's node test turned 0·∞ into NaN for such rays and culled
+/// boxes they enter.
+#[test]
+fn axis_rays_with_zero_components_of_either_sign_find_the_brute_force_hit() {
+    let mut rng = Rng(11);
+    let tris: Vec<[Vec3; 3]> = (0..4000)
+        .map(|_| {
+            let c = rng.vec() * 10.0;
+            [c + rng.vec() - 0.5, c + rng.vec() - 0.5, c + rng.vec() - 0.5]
+        })
+        .collect();
+    let accel = Accel::build(&tris, BvhKind::Wide);
+    let mut found = 0;
+    for k in 0..3000 {
+        let o = rng.vec() * 12.0 - Vec3::ONE;
+        let (z0, z1) = (if k & 1 == 0 { 0.0 } else { -0.0 }, if k & 2 == 0 { 0.0 } else { -0.0 });
+        let s = if k & 4 == 0 { 1.0 } else { -1.0 };
+        let dir = [Vec3::new(s, z0, z1), Vec3::new(z0, s, z1), Vec3::new(z0, z1, s)][k % 3];
+        let ray = Ray::new(o, dir);
+        let want = brute_force(&tris, &ray);
+        let got = accel.intersect(&ray, f32::INFINITY).map(|h| (h.t, h.prim));
+        assert_eq!(got, want, "ray {k}: {ray:?}");
+        assert_eq!(accel.occluded(&ray, f32::INFINITY), want.is_some(), "ray {k}: {ray:?}");
+        found += usize::from(want.is_some());
+    }
+    assert!(found > 500, "only {found} rays hit");
+}

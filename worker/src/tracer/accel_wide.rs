@@ -9,6 +9,7 @@
 //! Depth: [`super::Accel`] only builds a wide tree shallower than [`STACK`] (see `wide_depth`),
 //! so the stack never fills; were it to, pushes saturate as obvhs's do (no overflow).
 use glam::{UVec2, Vec3A};
+use super::node::{ChildBoxes, Slabs};
 use obvhs::cwbvh::CwBvh;
 use obvhs::faststack::FastStack;
 use obvhs::ray::Ray;
@@ -89,8 +90,9 @@ pub(super) fn octant_inv4(dir: Vec3A) -> u32 {
 /// four to a packet. `leaf` may shorten `ray.tmax` (closest hit: later boxes are culled against
 /// it) and returns true to stop the walk (any hit). Otherwise the steps of `traverse!`.
 #[inline(always)]
-pub(super) fn walk(bvh: &CwBvh, mut ray: Ray, mut leaf: impl FnMut(&mut Ray, u32, u32) -> bool) {
+pub(super) fn walk(bvh: &CwBvh, boxes: &[ChildBoxes], mut ray: Ray, mut leaf: impl FnMut(&mut Ray, u32, u32) -> bool) {
     let mut state = State::new(bvh, ray.direction);
+    let slabs = Slabs::new(&ray);
     loop {
         if state.primitive_group.y != 0 {
             if leaf(&mut ray, state.primitive_group.x, state.primitive_group.y) {
@@ -107,8 +109,9 @@ pub(super) fn walk(bvh: &CwBvh, mut ray: Ray, mut leaf: impl FnMut(&mut Ray, u32
             }
             let slot_index = (child_index_offset - 24) ^ (state.oct_inv4 & 0xff);
             let relative_index = (hits_imask & !(0xffff_ffffu32 << slot_index)).count_ones();
-            let node = &bvh.nodes[(state.current_group.x + relative_index) as usize];
-            let hitmask = super::node::hits(node, &ray, state.oct_inv4);
+            let index = (state.current_group.x + relative_index) as usize;
+            let node = &bvh.nodes[index];
+            let hitmask = super::node::hits(node, &boxes[index], &slabs, &ray, state.oct_inv4);
             state.current_group = UVec2::new(node.child_base_idx, (hitmask & 0xff00_0000) | node.imask as u32);
             state.primitive_group = UVec2::new(node.primitive_base_idx, hitmask & 0x00ff_ffff);
         } else {
