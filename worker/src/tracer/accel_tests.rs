@@ -252,7 +252,14 @@ fn axis_rays_with_zero_components_of_either_sign_find_the_brute_force_hit() {
             [c + rng.vec() - 0.5, c + rng.vec() - 0.5, c + rng.vec() - 0.5]
         })
         .collect();
-    let accel = Accel::build(&tris, BvhKind::Wide);
+    for kind in [BvhKind::Wide, BvhKind::Binary] {
+        axis_rays_match_brute_force(&tris, kind);
+    }
+}
+
+fn axis_rays_match_brute_force(tris: &[[Vec3; 3]], kind: BvhKind) {
+    let accel = Accel::build(tris, kind);
+    let mut rng = Rng(12);
     let mut found = 0;
     for k in 0..3000 {
         let o = rng.vec() * 12.0 - Vec3::ONE;
@@ -260,11 +267,11 @@ fn axis_rays_with_zero_components_of_either_sign_find_the_brute_force_hit() {
         let s = if k & 4 == 0 { 1.0 } else { -1.0 };
         let dir = [Vec3::new(s, z0, z1), Vec3::new(z0, s, z1), Vec3::new(z0, z1, s)][k % 3];
         let ray = Ray::new(o, dir);
-        let want = brute_force(&tris, &ray);
+        let want = brute_force(tris, &ray);
         let got = accel.intersect(&ray, f32::INFINITY).map(|h| (h.t, h.prim));
-        assert_eq!(got, want, "ray {k}: {ray:?}");
-        assert_eq!(accel.occluded(&ray, f32::INFINITY), want.is_some(), "ray {k}: {ray:?}");
+        assert_eq!(got, want, "{kind:?}, ray {k}: {ray:?}");
+        assert_eq!(accel.occluded(&ray, f32::INFINITY), want.is_some(), "{kind:?}, ray {k}: {ray:?}");
         found += usize::from(want.is_some());
     }
-    assert!(found > 500, "only {found} rays hit");
+    assert!(found > 500, "{kind:?}: only {found} rays hit");
 }
