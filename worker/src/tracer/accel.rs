@@ -27,7 +27,7 @@ pub enum BvhKind {
 }
 
 enum Tree {
-    /// obvhs's wide tree and each of its nodes' child boxes decoded to f32 (`accel_node.rs`).
+    /// obvhs's wide tree and each of its nodes' child boxes in f32, tight (`accel_node.rs`).
     Wide(CwBvh, Vec<node::ChildBoxes>),
     Binary(Bvh2),
     Empty,
@@ -86,7 +86,7 @@ impl Accel {
                     (to_wide(&bvh2, params), bvh2)
                 };
                 match std::panic::catch_unwind(std::panic::AssertUnwindSafe(build)) {
-                    Ok((bvh, bvh2)) if wide_depth(&bvh) < WIDE_STACK => (Tree::wide(bvh), Some(bvh2)),
+                    Ok((bvh, bvh2)) if wide_depth(&bvh) < WIDE_STACK => (Tree::wide(bvh, &obvhs_tris), Some(bvh2)),
                     _ => (Tree::Binary(obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time)), None),
                 }
             }
@@ -213,8 +213,9 @@ impl Accel {
 }
 
 impl Tree {
-    fn wide(bvh: CwBvh) -> Tree {
-        let boxes = bvh.nodes.iter().map(node::ChildBoxes::decode).collect();
+    /// The wide tree `bvh` over `tris` (tree space, as its primitive indices number them).
+    fn wide(bvh: CwBvh, tris: &[Triangle]) -> Tree {
+        let boxes = node::ChildBoxes::of_tree(&bvh, tris);
         Tree::Wide(bvh, boxes)
     }
 }

@@ -35,7 +35,7 @@ impl Accel {
                 if wide_depth(&wide) >= WIDE_STACK {
                     return None;
                 }
-                Tree::wide(wide)
+                Tree::wide(wide, &obvhs_tris)
             }
             Tree::Binary(_) => Tree::Binary(bvh2.clone()),
             Tree::Empty => return None,
