@@ -196,11 +196,13 @@ impl Accel {
     #[inline(always)]
     fn tree_ray(&self, ray: &Ray, t_max: f32) -> Option<(obvhs::ray::Ray, WatertightRay)> {
         let origin = ray.origin * self.scale;
-        if !(origin.is_finite() && ray.dir.is_finite()) || ray.dir == Vec3::ZERO {
+        // In SIMD: glam's Vec3 tests each component apart (a branch and a bit test each).
+        let dir = Vec3A::from(ray.dir);
+        if !(Vec3A::from(origin).is_finite() && dir.is_finite()) || dir.cmpeq(Vec3A::ZERO).all() {
             return None;
         }
         let tmax = t_max * self.scale;
-        let inv = exact_reciprocal(ray.dir.into());
+        let inv = exact_reciprocal(dir);
         let r = obvhs::ray::Ray {
             origin: origin.into(),
             direction: ray.dir.into(),
