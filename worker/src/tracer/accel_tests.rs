@@ -15,6 +15,16 @@ impl Rng {
     }
 }
 
+/// `n` random triangles of size ≈ 1 in a 10-unit cube.
+fn triangle_soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
+    (0..n)
+        .map(|_| {
+            let c = rng.vec() * 10.0;
+            [c + rng.vec() - 0.5, c + rng.vec() - 0.5, c + rng.vec() - 0.5]
+        })
+        .collect()
+}
+
 /// A unit square in z = 0 split into an n×n grid of quads, two triangles each.
 fn grid(n: usize) -> Vec<[Vec3; 3]> {
     let mut tris = Vec::new();
@@ -53,12 +63,7 @@ fn rays_through_shared_edges_and_vertices_never_leak() {
 #[test]
 fn both_trees_agree_with_brute_force_on_random_rays() {
     let mut rng = Rng(7);
-    let tris: Vec<[Vec3; 3]> = (0..500)
-        .map(|_| {
-            let c = rng.vec() * 10.0;
-            [c + rng.vec() - 0.5, c + rng.vec() - 0.5, c + rng.vec() - 0.5]
-        })
-        .collect();
+    let tris = triangle_soup(&mut rng, 500);
     let wide = Accel::build(&tris, BvhKind::Wide);
     let binary = Accel::build(&tris, BvhKind::Binary);
     let mut hits = 0;
@@ -245,13 +250,7 @@ fn negative_zero_direction_components_hit_like_positive_zeros() {
 /// boxes they enter.
 #[test]
 fn axis_rays_with_zero_components_of_either_sign_find_the_brute_force_hit() {
-    let mut rng = Rng(11);
-    let tris: Vec<[Vec3; 3]> = (0..4000)
-        .map(|_| {
-            let c = rng.vec() * 10.0;
-            [c + rng.vec() - 0.5, c + rng.vec() - 0.5, c + rng.vec() - 0.5]
-        })
-        .collect();
+    let tris = triangle_soup(&mut Rng(11), 4000);
     for kind in [BvhKind::Wide, BvhKind::Binary] {
         axis_rays_match_brute_force(&tris, kind);
     }
