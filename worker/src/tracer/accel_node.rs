@@ -21,20 +21,23 @@
 //! and culls boxes such rays enter). Which boxes are culled only changes the work done: the hit
 //! is the closest (t, triangle index) whatever the walk ([`super::Accel::intersect_where`]).
 //!
-//! Elsewhere than x86_64, obvhs's own test is used.
+//! The arithmetic is glam's `Vec4` (SSE2 on x86_64, NEON on aarch64), so every target gets the
+//! same test.
 #[cfg(test)]
 use glam::Vec3A;
+use glam::Vec4;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::{CwBvh, node::CwBvhNode};
 use obvhs::ray::Ray;
 use obvhs::triangle::Triangle;
 
-/// A node's child boxes in tree space: `planes[axis][0]` holds the eight low planes,
-/// `planes[axis][1]` the high ones; lane i is child slot i.
+/// A node's child boxes in tree space, one row of eight planes (two SIMD vectors, lane i of
+/// vector h is child slot 4h + i) per axis and side: row 2·axis holds the low planes, row
+/// 2·axis + 1 the high ones.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub(super) struct ChildBoxes {
-    planes: [[[f32; ROW]; 2]; 3],
+    rows: [[Vec4; 2]; 6],
 }
 
 impl ChildBoxes {
@@ -61,19 +64,22 @@ impl ChildBoxes {
     }
 
     /// No box: every ray misses it (its near plane is at +∞ or its far one at −∞).
-    const EMPTY: ChildBoxes = ChildBoxes { planes: [[[f32::INFINITY; ROW], [f32::NEG_INFINITY; ROW]]; 3] };
+    const EMPTY: ChildBoxes = {
+        let (lo, hi) = ([Vec4::INFINITY; 2], [Vec4::NEG_INFINITY; 2]);
+        ChildBoxes { rows: [lo, hi, lo, hi, lo, hi] }
+    };
 
     fn set(&mut self, child: usize, aabb: &Aabb) {
         for axis in 0..3 {
-            self.planes[axis][0][child] = aabb.min[axis];
-            self.planes[axis][1][child] = aabb.max[axis];
+            self.rows[2 * axis][child / 4][child % 4] = aabb.min[axis];
+            self.rows[2 * axis + 1][child / 4][child % 4] = aabb.max[axis];
         }
     }
 
     /// Child `child`'s box as (min, max) corners.
     #[cfg(test)]
     pub(super) fn child(&self, child: usize) -> (Vec3A, Vec3A) {
-        let corner = |side: usize| Vec3A::from_array(std::array::from_fn(|axis| self.planes[axis][side][child]));
+        let corner = |side: usize| Vec3A::from_array(std::array::from_fn(|axis| self.rows[2 * axis + side][child / 4][child % 4]));
         (corner(0), corner(1))
     }
 }
@@ -90,52 +96,41 @@ fn depth_first(bvh: &CwBvh) -> Vec<usize> {
     order
 }
 
-/// f32s in a row of [`ChildBoxes`] planes (one plane per child slot).
-const ROW: usize = 8;
-
 /// obvhs's node test skips children nearer than this (its private `EPSILON`); so does ours.
 const NEAREST: f32 = 0.0001;
 
 /// 1 + 2γ₃, rounded up: the far distance's allowance for rounding (pbrt-v4).
 const FAR_SCALE: f32 = 1.0 + 2.0 * crate::tracer::ray::gamma(3);
 
-/// Per-ray constants of the node test: origin and reciprocal direction in every lane, and for
-/// each axis which side's planes the ray meets first.
-#[cfg(target_arch = "x86_64")]
+/// Per-ray constants of the node test: origin and reciprocal direction in every lane, and per
+/// axis the [`ChildBoxes`] row of planes the ray meets first (the high planes where the
+/// reciprocal direction is negative, −0 included) and the other row.
 pub(super) struct Slabs {
-    origin: [std::arch::x86_64::__m128; 3],
-    inv: [std::arch::x86_64::__m128; 3],
-    /// Per axis, the offset in f32s of the row of planes the ray meets first in a
-    /// [`ChildBoxes`] (the high planes where the reciprocal direction is negative, −0 included),
-    /// and of the other row.
+    origin: [Vec4; 3],
+    inv: [Vec4; 3],
     near: [usize; 3],
     far: [usize; 3],
 }
 
-#[cfg(target_arch = "x86_64")]
 impl Slabs {
     #[inline(always)]
     pub(super) fn new(ray: &Ray) -> Slabs {
-        use std::arch::x86_64::_mm_set1_ps;
         let (o, inv) = (ray.origin, ray.inv_direction);
-        // SAFETY: SSE2 is part of every x86_64 target; no memory is touched.
-        let splat = |v: f32| unsafe { _mm_set1_ps(v) };
         let high_first = [inv.x, inv.y, inv.z].map(|v| usize::from(v.is_sign_negative()));
         Slabs {
-            origin: [splat(o.x), splat(o.y), splat(o.z)],
-            inv: [splat(inv.x), splat(inv.y), splat(inv.z)],
-            near: [0, 1, 2].map(|axis| ROW * (2 * axis + high_first[axis])),
-            far: [0, 1, 2].map(|axis| ROW * (2 * axis + 1 - high_first[axis])),
+            origin: [o.x, o.y, o.z].map(Vec4::splat),
+            inv: [inv.x, inv.y, inv.z].map(Vec4::splat),
+            near: [0, 1, 2].map(|axis| 2 * axis + high_first[axis]),
+            far: [0, 1, 2].map(|axis| 2 * axis + 1 - high_first[axis]),
         }
     }
 }
 
 /// The hit mask obvhs's `intersect_ray` returns: hit inner children in the high byte, the
 /// candidate triangles of hit leaf children in the low 24 bits.
-#[cfg(target_arch = "x86_64")]
 #[inline(always)]
 pub(super) fn hits(node: &CwBvhNode, boxes: &ChildBoxes, slabs: &Slabs, ray: &Ray, oct_inv4: u32) -> u32 {
-    let children = entered(boxes, slabs, ray.tmax, 0) | entered(boxes, slabs, ray.tmax, 4) << 4;
+    let children = entered(boxes, slabs, ray.tmax, 0) | entered(boxes, slabs, ray.tmax, 1) << 4;
     let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
     super::packet::set_bits(children).fold(0, |hit_mask, child| {
         let shift = 8 * child;
@@ -143,45 +138,16 @@ pub(super) fn hits(node: &CwBvhNode, boxes: &ChildBoxes, slabs: &Slabs, ray: &Ra
     })
 }
 
-/// Bit i set: the ray enters child `first + i`'s box on [NEAREST, t_max] (i < 4).
-#[cfg(target_arch = "x86_64")]
+/// Bit i set: the ray enters child 4·`half` + i's box on [NEAREST, t_max].
 #[inline(always)]
-fn entered(boxes: &ChildBoxes, slabs: &Slabs, t_max: f32, first: usize) -> u32 {
-    use std::arch::x86_64::*;
-    let planes = boxes.planes.as_ptr().cast::<f32>();
-    // SAFETY: SSE2 is part of every x86_64 target. Each load reads four f32s at `row + first`:
-    // rows start at multiples of ROW (`Slabs::new` makes them, below 6·ROW) and `first` is 0 or
-    // 4, so the four lie inside the 48 f32s of `planes`, 16-byte aligned (the struct is 64-byte
-    // aligned).
-    unsafe {
-        let distance = |axis: usize, row: usize| {
-            let plane = _mm_load_ps(planes.add(row + first));
-            _mm_mul_ps(_mm_sub_ps(plane, slabs.origin[axis]), slabs.inv[axis])
-        };
-        let ([near_x, near_y, near_z], [far_x, far_y, far_z]) = (slabs.near, slabs.far);
-        let (nx, ny, nz) = (distance(0, near_x), distance(1, near_y), distance(2, near_z));
-        let (fx, fy, fz) = (distance(0, far_x), distance(1, far_y), distance(2, far_z));
-        let t_min = _mm_max_ps(_mm_max_ps(nx, ny), _mm_max_ps(nz, _mm_set1_ps(NEAREST)));
-        let t_far = _mm_mul_ps(_mm_min_ps(_mm_min_ps(fx, fy), fz), _mm_set1_ps(FAR_SCALE));
-        _mm_movemask_ps(_mm_cmple_ps(t_min, _mm_min_ps(t_far, _mm_set1_ps(t_max)))) as u32
-    }
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-pub(super) struct Slabs;
-
-#[cfg(not(target_arch = "x86_64"))]
-impl Slabs {
-    #[inline(always)]
-    pub(super) fn new(_: &Ray) -> Slabs {
-        Slabs
-    }
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-#[inline(always)]
-pub(super) fn hits(node: &CwBvhNode, _: &ChildBoxes, _: &Slabs, ray: &Ray, oct_inv4: u32) -> u32 {
-    node.intersect_ray(ray, oct_inv4)
+fn entered(boxes: &ChildBoxes, slabs: &Slabs, t_max: f32, half: usize) -> u32 {
+    let distance = |axis: usize, row: usize| (boxes.rows[row][half] - slabs.origin[axis]) * slabs.inv[axis];
+    let ([near_x, near_y, near_z], [far_x, far_y, far_z]) = (slabs.near, slabs.far);
+    let (nx, ny, nz) = (distance(0, near_x), distance(1, near_y), distance(2, near_z));
+    let (fx, fy, fz) = (distance(0, far_x), distance(1, far_y), distance(2, far_z));
+    let t_min = nx.max(ny).max(nz.max(Vec4::splat(NEAREST)));
+    let t_far = fx.min(fy).min(fz) * FAR_SCALE;
+    t_min.cmple(t_far.min(Vec4::splat(t_max))).bitmask()
 }
 
 #[cfg(test)]
