@@ -263,15 +263,20 @@ fn wide_depth(bvh: &CwBvh) -> u32 {
     while let Some((i, depth)) = stack.pop() {
         deepest = deepest.max(depth);
         let Some(node) = bvh.nodes.get(i) else { continue };
-        for (ch, meta) in node.child_meta.iter().enumerate() {
-            let slot = (meta & 0b11111).checked_sub(24);
-            if let Some(slot) = slot.filter(|_| node.imask & (1 << ch) != 0) {
-                let before = (node.imask as u32 & !(u32::MAX << slot)).count_ones();
-                stack.push((node.child_base_idx as usize + before as usize, depth + 1));
-            }
-        }
+        stack.extend(inner_children(node).map(|child| (child, depth + 1)));
     }
     deepest
+}
+
+/// The node indices of `node`'s inner children, as obvhs's `child_node_index` finds them but
+/// without trusting the metadata (a slot below 24 is skipped, not an underflow): the trees
+/// [`wide_depth`] vets may be pathological.
+fn inner_children(node: &obvhs::cwbvh::node::CwBvhNode) -> impl Iterator<Item = usize> + '_ {
+    node.child_meta.iter().enumerate().filter_map(|(ch, meta)| {
+        let slot = (meta & 0b11111).checked_sub(24).filter(|_| node.imask & (1 << ch) != 0)?;
+        let before = (node.imask as u32 & !(u32::MAX << slot)).count_ones();
+        Some(node.child_base_idx as usize + before as usize)
+    })
 }
 
 /// The unit geometric normal (counter-clockwise winding), computed in f64; None for a

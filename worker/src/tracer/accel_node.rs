@@ -90,8 +90,7 @@ fn depth_first(bvh: &CwBvh) -> Vec<usize> {
     let mut stack = if bvh.nodes.is_empty() { vec![] } else { vec![0] };
     while let Some(i) = stack.pop() {
         order.push(i);
-        let node = &bvh.nodes[i];
-        stack.extend((0..8).filter(|&c| node.child_meta[c] != 0 && node.imask & (1 << c) != 0).map(|c| node.child_node_index(c) as usize));
+        stack.extend(super::inner_children(&bvh.nodes[i]));
     }
     order
 }

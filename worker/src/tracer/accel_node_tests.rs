@@ -52,13 +52,16 @@ fn child_boxes_are_tight_and_inside_the_quantized_ones() {
             assert!(lo.cmple(hi).all(), "child {child}: empty box {lo}..{hi}");
             if node.imask & (1 << child) == 0 {
                 let (first, count) = node.child_primitives(child);
+                let (mut v_lo, mut v_hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
                 for slot in first..first + count {
                     let t = &tris[bvh.primitive_indices[slot as usize] as usize];
                     for v in [t.v0, t.v1, t.v2] {
                         assert!(v.cmpge(lo).all() && v.cmple(hi).all(), "vertex {v} outside {lo}..{hi}");
+                        (v_lo, v_hi) = (v_lo.min(v), v_hi.max(v));
                     }
-                    // Tight: the box is the union of its triangles' boxes, so each face touches one.
                 }
+                // Tight: every face of the box touches a vertex.
+                assert_eq!((lo, hi), (v_lo, v_hi), "child {child}: box not tight");
                 leaves += 1;
             }
         }
@@ -81,8 +84,7 @@ fn every_entered_child_is_kept_and_no_more_than_obvhs_keeps() {
         let d = if k % 4 == 3 { Vec3A::new(-0.0, 0.0, d.z.signum()) } else { d };
         let tmax = if k % 2 == 0 { f32::INFINITY } else { 40.0 };
         let mut ray = Ray::new(o, d, 0.0, tmax);
-        ray.inv_direction = Vec3A::ONE / d;
-        ray.inv_direction = Vec3A::select(ray.inv_direction.is_finite_mask(), ray.inv_direction, Vec3A::splat(f32::MAX).copysign(ray.inv_direction));
+        ray.inv_direction = super::super::exact_reciprocal(d);
         let oct = super::super::wide::octant_inv4(d);
         let slabs = Slabs::new(&ray);
         for (node, b) in bvh.nodes.iter().zip(&boxes) {
