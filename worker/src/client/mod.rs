@@ -12,7 +12,9 @@
 //! ```
 //!
 //! # Layout
-//! - this file: [`run`], the loop, one unit's life (`Worker::run_unit`) and result uploads.
+//! - this file: [`run`] and the loop: registration, the next lease, the unit in hand, its upload.
+//! - `unit`: one unit's life: queued on the pool, rendered under heartbeats, how it ended.
+//! - `lease`: heartbeats and giving a lease back, for every lease held.
 //! - `api`: one function per endpoint, answers sorted into what the loop acts on.
 //! - `prefetch`: the next lease, requested, its unit queued and kept alive in the background
 //!   while a unit renders.
@@ -47,24 +49,26 @@
 mod api;
 mod cache;
 mod convert;
+mod lease;
 mod prefetch;
 mod prepare;
 mod queue;
 mod retry;
 #[cfg(test)]
 mod tests;
+mod unit;
 mod upload;
 
 pub use convert::{render_settings, to_wire};
 
-use crate::tracer::{RowQueue, TileSums};
 use anyhow::{Context, anyhow};
-use api::{Api, CallError, HeartbeatAnswer, LeaseAnswer};
+use api::{Api, LeaseAnswer};
 use cache::SceneCache;
 use prefetch::Prefetch;
-use prepare::Prepared;
 use queue::Queued;
-use retry::{Backoff, RETRY, Retried, Stop, until_done};
+use retry::{Backoff, Retried, Stop, until_done};
+use lease::{heartbeat_every, keep_alive, release};
+use unit::Unit;
 use upload::{Uploaded, finish_upload, from_upload_answer, give_back_carried, upload};
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -73,7 +77,7 @@ use std::time::{Duration, Instant};
 use tessera_proto::{Lease, Registration, WorkerHello};
 use tokio::sync::oneshot;
 use tokio::task::JoinHandle;
-use tracing::{debug, error, info, warn};
+use tracing::{debug, info, warn};
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct WorkerConfig {
@@ -138,21 +142,6 @@ pub async fn run(config: WorkerConfig, shutdown: impl Future<Output = ()> + Send
         }
     }
     work.await
-}
-
-/// How a unit ended.
-enum Unit {
-    Rendered {
-        sums: TileSums,
-        deadline: Instant,
-        prepared: Prepared,
-    },
-    /// The lease was lost (409 on heartbeat, or its deadline passed): dropped.
-    Canceled,
-    /// Could not be worked (scene, parameters, renderer error): given back.
-    Failed,
-    /// Unfinished at the end of the shutdown grace: given back.
-    Abandoned,
 }
 
 /// What the loop carries from one unit to the next.
@@ -317,15 +306,6 @@ impl Worker {
         (until_done("lease request", stop, LEASE_DRAIN, || self.api.lease(worker_id)).await, None)
     }
 
-    /// Prepares a unit (its settings, its frame's scene) and queues it on the render pool.
-    async fn queue_unit(&self, lease: &Lease) -> Result<Queued, String> {
-        let settings = check_unit(lease).map_err(|e| format!("cannot work this unit: {e}"))?;
-        let (scene, prepared) = self.frame_scene(lease).await?;
-        let (tile, samples) = (convert::tile(lease.tile), lease.samples[0]..lease.samples[1]);
-        let unit = RowQueue::new(scene, settings, tile, samples).map_err(|e| format!("cannot render: {e}"))?;
-        Ok(queue::queue(&self.pool, unit, prepared, self.busy_ns.clone()))
-    }
-
     /// Ends a prefetch when the loop has ended; a lease it still got is given back.
     async fn give_back(&self, prefetch: Prefetch, report: &mut WorkerReport) {
         if let Some((Retried::Done(LeaseAnswer::Lease(lease)) | Retried::Stopped(Some(LeaseAnswer::Lease(lease))), _queued)) = prefetch.take(&mut report.units_canceled).await {
@@ -348,88 +328,6 @@ impl Worker {
         }
     }
 
-    /// One unit under heartbeats: queued on the pool unless the prefetch did it (`queued`), then
-    /// waited for. `scene_ready` is dropped once the unit is queued (or cannot be).
-    async fn run_unit(&self, lease: &Lease, queued: Option<Queued>, scene_ready: tokio::sync::oneshot::Sender<()>, heartbeat_every: Duration, stop: &Stop) -> Unit {
-        let id = lease.lease_id.as_str();
-        let deadline = Mutex::new(Instant::now() + Duration::from_millis(lease.deadline_ms));
-        debug!(lease = id, job = %lease.job_id, tile = ?lease.tile, samples = ?lease.samples, queued = queued.is_some(), "leased a unit");
-        let keep_alive = self.keep_alive(id, heartbeat_every, &deadline);
-        tokio::pin!(keep_alive);
-
-        // The frame's scene (from the cache, refitted, or built) and the unit queued behind it.
-        let started = Instant::now();
-        let mut unit = match queued {
-            Some(q) => q,
-            None => tokio::select! {
-                r = self.queue_unit(lease) => match r {
-                    Ok(q) => q,
-                    Err(e) => {
-                        error!(lease = id, job = %lease.job_id, "{e}; giving the lease back");
-                        self.release(id).await;
-                        return Unit::Failed;
-                    }
-                },
-                why = &mut keep_alive => {
-                    info!(lease = id, "lease lost while fetching its scene: {why}");
-                    return Unit::Canceled;
-                }
-                () = stop.wait() => {
-                    self.release(id).await;
-                    return Unit::Abandoned;
-                }
-            },
-        };
-
-        drop(scene_ready);
-
-        // The heartbeats and the shutdown request only set the unit's cancel flag, then wait
-        // for the pool to let go (within a row), so the next unit finds it free.
-        let grace = tokio::time::sleep(Duration::from_secs(365 * 24 * 3600));
-        tokio::pin!(grace);
-        let (mut lost, mut stopping, mut abandoned) = (None, false, false);
-        let joined = loop {
-            tokio::select! {
-                joined = &mut unit.result => break joined,
-                why = &mut keep_alive, if lost.is_none() => {
-                    unit.cancel();
-                    lost = Some(why);
-                }
-                () = stop.wait(), if !stopping => {
-                    stopping = true;
-                    grace.as_mut().reset(tokio::time::Instant::now() + SHUTDOWN_GRACE);
-                    debug!(lease = id, "shutdown: the unit in hand gets {SHUTDOWN_GRACE:?} to finish");
-                }
-                () = &mut grace, if stopping && !abandoned => {
-                    abandoned = true;
-                    unit.cancel();
-                }
-            }
-        };
-        if let Some(why) = lost {
-            info!(lease = id, job = %lease.job_id, "lease lost while rendering: {why}; unit dropped");
-            return Unit::Canceled;
-        }
-        if abandoned {
-            info!(lease = id, "unit unfinished at the end of the shutdown grace: giving the lease back");
-            self.release(id).await;
-            return Unit::Abandoned;
-        }
-        let error = match joined {
-            Ok(Ok(Some(sums))) => {
-                debug!(lease = id, ms = started.elapsed().as_millis() as u64, "unit rendered");
-                let deadline = *deadline.lock().expect("deadline lock");
-                return Unit::Rendered { sums, deadline, prepared: unit.prepared };
-            }
-            Ok(Ok(None)) => "the render stopped without being canceled".to_owned(),
-            Ok(Err(e)) => format!("the renderer failed: {e}"),
-            Err(_) => "the render pool dropped the unit".to_owned(),
-        };
-        error!(lease = id, job = %lease.job_id, "{error}; giving the lease back");
-        self.release(id).await;
-        Unit::Failed
-    }
-
     /// Heartbeats the lease until it is lost (see [`keep_alive`]).
     async fn keep_alive(&self, id: &str, every: Duration, deadline: &Mutex<Instant>) -> String {
         keep_alive(&self.api, id, every, deadline).await
@@ -440,72 +338,3 @@ impl Worker {
         release(&self.api, id).await;
     }
 }
-
-/// Heartbeats the lease every `every` and returns once it is lost, saying why. Transient
-/// failures are retried at the same pace until the lease's deadline passes.
-async fn keep_alive(api: &Api, id: &str, every: Duration, deadline: &Mutex<Instant>) -> String {
-    let expired = || "its deadline passed without a successful heartbeat".to_owned();
-    loop {
-        // Normally `every`; sooner if the lease was granted with a shorter deadline.
-        let due = *deadline.lock().expect("deadline lock");
-        let pause = every.min(due.saturating_duration_since(Instant::now()) / 2).max(Duration::from_millis(10));
-        tokio::time::sleep(pause).await;
-        let due = *deadline.lock().expect("deadline lock");
-        let Some(left) = due.checked_duration_since(Instant::now()).filter(|d| !d.is_zero()) else {
-            return expired();
-        };
-        match tokio::time::timeout(left, api.heartbeat(id)).await {
-            Ok(Ok(HeartbeatAnswer::Extended(d))) => *deadline.lock().expect("deadline lock") = Instant::now() + d,
-            Ok(Ok(HeartbeatAnswer::Gone)) => return "the coordinator has dropped it (expired or job canceled)".to_owned(),
-            Ok(Err(e)) => warn!(lease = id, "heartbeat failed (will retry): {e}"),
-            Err(_) => return expired(),
-        }
-    }
-}
-
-/// Gives a lease back (a few attempts; if they all fail the lease simply expires).
-async fn release(api: &Api, id: &str) {
-    let mut backoff = RETRY;
-    for attempt in 1..=RELEASE_ATTEMPTS {
-        match api.release(id).await {
-            Ok(()) => {
-                debug!(lease = id, "lease given back");
-                return;
-            }
-            Err(CallError::Transient(e)) if attempt < RELEASE_ATTEMPTS => {
-                warn!(lease = id, attempt, "{e}");
-                tokio::time::sleep(backoff.next_delay()).await;
-            }
-            Err(e) => {
-                warn!(lease = id, "cannot give the lease back ({e}); it will expire");
-                return;
-            }
-        }
-    }
-}
-
-/// A third of the coordinator's heartbeat period, and at least every second.
-fn heartbeat_every(reg: &Registration) -> Duration {
-    Duration::from_millis((reg.heartbeat_ms / 3).clamp(10, 1000))
-}
-
-/// The unit's render settings; frame n of an animation is rendered with its own seed
-/// ([`frame_seed`](crate::tracer::sampler::frame_seed), the job's seed for frame 0).
-fn check_unit(lease: &Lease) -> Result<crate::tracer::RenderSettings, String> {
-    let mut settings = render_settings(&lease.params)?;
-    settings.seed = crate::tracer::sampler::frame_seed(settings.seed, lease.frame);
-    let [s0, s1] = lease.samples;
-    if s1 <= s0 {
-        return Err(format!("empty sample range [{s0}, {s1})"));
-    }
-    let t = lease.tile;
-    if t.w == 0
-        || t.h == 0
-        || t.x0.checked_add(t.w).is_none_or(|x| x > settings.width)
-        || t.y0.checked_add(t.h).is_none_or(|y| y > settings.height)
-    {
-        return Err(format!("tile {t:?} is empty or exceeds the {}×{} image", settings.width, settings.height));
-    }
-    Ok(settings)
-}
-

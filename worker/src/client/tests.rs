@@ -2,15 +2,12 @@
 //! furnace scene, hands out a scripted sequence of answers and records what the worker sends.
 use super::*;
 use crate::tracer::render_tile;
-use axum::extract::{Path, RawQuery, Request, State};
-use axum::http::{HeaderMap, StatusCode, header};
-use axum::middleware::{self, Next};
-use axum::response::{IntoResponse, Response};
-use axum::routing::{delete, get, post, put};
-use axum::{Json, Router};
-use std::collections::{HashSet, VecDeque};
-use tessera_proto::{Heartbeat, LeaseRequest, PartialSums, Problem, RenderParams, TileRect};
+use tessera_proto::{PartialSums, RenderParams, TileRect};
 use tokio::sync::oneshot;
+
+#[path = "tests_mock.rs"]
+mod mock;
+use mock::{Mock, Step, serve_on, start};
 
 const TOKEN: &str = "s3cret";
 const SCENE_ID: &str = "furnace";
@@ -24,192 +21,6 @@ fn animated_path() -> std::path::PathBuf {
 
 fn furnace_path() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/furnace.gltf")
-}
-
-enum Step {
-    Lease(Box<Lease>),
-    NoWork,
-    /// Answer 404 and forget every worker, as a restarted coordinator would.
-    Forget,
-}
-
-#[derive(Default)]
-struct Log {
-    registrations: u32,
-    known: HashSet<String>,
-    script: VecDeque<Step>,
-    /// (when, worker id) of every lease request.
-    lease_requests: Vec<(Instant, String)>,
-    heartbeats: Vec<(Instant, String)>,
-    /// Leases whose heartbeat answers 409, and when that first happened.
-    kill_on_heartbeat: HashSet<String>,
-    killed_at: Option<Instant>,
-    /// Leases whose result answers 409.
-    stale_results: HashSet<String>,
-    /// How many result uploads to answer 503 before accepting them.
-    failing_results: u32,
-    /// Leases whose result upload takes half a second to answer.
-    slow_results: HashSet<String>,
-    /// (lease id, content type, body, when it arrived) of every result upload.
-    results: Vec<(String, String, Vec<u8>, Instant)>,
-    released: Vec<String>,
-    /// (when, worker id) of every deregistration.
-    deregistered: Vec<(Instant, String)>,
-    scene_downloads: u32,
-    unauthorized: u32,
-    /// (lease id, x-tessera-prepare, x-tessera-prepare-ms) of every result upload.
-    prepared: Vec<(String, String, f64)>,
-    /// Answer a merged result that asks for the next lease (`?next=true`) with the script's next
-    /// step, as the coordinator does; otherwise such results are answered 204 (no work now).
-    leases_with_results: bool,
-    /// Leases handed out in a result's answer.
-    carried: Vec<String>,
-}
-
-struct Mock {
-    heartbeat_ms: u64,
-    scene: Vec<u8>,
-    log: Mutex<Log>,
-}
-
-impl Mock {
-    fn new(heartbeat_ms: u64, script: Vec<Step>) -> Arc<Mock> {
-        let log = Log { script: script.into(), ..Log::default() };
-        Arc::new(Mock { heartbeat_ms, scene: std::fs::read(furnace_path()).unwrap(), log: Mutex::new(log) })
-    }
-
-    fn log(&self) -> std::sync::MutexGuard<'_, Log> {
-        self.log.lock().unwrap()
-    }
-}
-
-fn problem(status: StatusCode, detail: &str) -> Response {
-    let p = Problem { kind: "about:blank".into(), title: status.to_string(), status: status.as_u16(), detail: detail.into(), field: None };
-    (status, [(header::CONTENT_TYPE, "application/problem+json")], serde_json::to_string(&p).unwrap()).into_response()
-}
-
-async fn auth(State(mock): State<Arc<Mock>>, req: Request, next: Next) -> Response {
-    let expected = format!("Bearer {TOKEN}");
-    if req.headers().get(header::AUTHORIZATION).and_then(|v| v.to_str().ok()) != Some(expected.as_str()) {
-        mock.log().unauthorized += 1;
-        return problem(StatusCode::UNAUTHORIZED, "missing or wrong token");
-    }
-    next.run(req).await
-}
-
-async fn register(State(mock): State<Arc<Mock>>, Json(hello): Json<WorkerHello>) -> Response {
-    assert!(hello.threads >= 1);
-    let mut log = mock.log();
-    log.registrations += 1;
-    let worker_id = format!("w{}", log.registrations);
-    log.known.insert(worker_id.clone());
-    (StatusCode::CREATED, Json(Registration { worker_id, heartbeat_ms: mock.heartbeat_ms })).into_response()
-}
-
-async fn lease(State(mock): State<Arc<Mock>>, Json(req): Json<LeaseRequest>) -> Response {
-    let mut log = mock.log();
-    log.lease_requests.push((Instant::now(), req.worker_id.clone()));
-    if !log.known.contains(&req.worker_id) {
-        return problem(StatusCode::NOT_FOUND, "unknown worker");
-    }
-    match log.script.pop_front() {
-        Some(Step::Lease(l)) => Json(*l).into_response(),
-        Some(Step::NoWork) | None => StatusCode::NO_CONTENT.into_response(),
-        Some(Step::Forget) => {
-            log.known.clear();
-            problem(StatusCode::NOT_FOUND, "unknown worker")
-        }
-    }
-}
-
-async fn heartbeat(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
-    let mut log = mock.log();
-    let now = Instant::now();
-    log.heartbeats.push((now, id.clone()));
-    if log.kill_on_heartbeat.contains(&id) {
-        log.killed_at.get_or_insert(now);
-        return problem(StatusCode::CONFLICT, "lease expired or job canceled");
-    }
-    Json(Heartbeat { deadline_ms: 30_000 }).into_response()
-}
-
-async fn result(State(mock): State<Arc<Mock>>, Path(id): Path<String>, RawQuery(query): RawQuery, headers: HeaderMap, body: axum::body::Bytes) -> Response {
-    let content_type = headers.get(header::CONTENT_TYPE).and_then(|v| v.to_str().ok()).unwrap_or("").to_owned();
-    let slow = {
-        let mut log = mock.log();
-        log.results.push((id.clone(), content_type, body.to_vec(), Instant::now()));
-        let header = |name: &str| headers.get(name).and_then(|v| v.to_str().ok()).unwrap_or("").to_owned();
-        let ms = header("x-tessera-prepare-ms").parse().unwrap_or(f64::NAN);
-        log.prepared.push((id.clone(), header("x-tessera-prepare"), ms));
-        log.slow_results.contains(&id)
-    };
-    if slow {
-        tokio::time::sleep(SLOW_RESULT).await;
-    }
-    {
-        let mut log = mock.log();
-        if log.failing_results > 0 {
-            log.failing_results -= 1;
-            return problem(StatusCode::SERVICE_UNAVAILABLE, "try again");
-        }
-    }
-    let mut log = mock.log();
-    if log.stale_results.contains(&id) {
-        return problem(StatusCode::CONFLICT, "stale");
-    }
-    if query.as_deref() != Some("next=true") || !log.leases_with_results {
-        return StatusCode::NO_CONTENT.into_response();
-    }
-    match log.script.pop_front() {
-        Some(Step::Lease(l)) => {
-            log.carried.push(l.lease_id.clone());
-            Json(*l).into_response()
-        }
-        _ => StatusCode::NO_CONTENT.into_response(),
-    }
-}
-
-async fn release(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
-    mock.log().released.push(id);
-    StatusCode::NO_CONTENT.into_response()
-}
-
-async fn deregister(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
-    let mut log = mock.log();
-    log.deregistered.push((Instant::now(), id.clone()));
-    if log.known.remove(&id) { StatusCode::NO_CONTENT.into_response() } else { problem(StatusCode::NOT_FOUND, "unknown worker") }
-}
-
-async fn scene(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
-    let bytes = match id.as_str() {
-        SCENE_ID => mock.scene.clone(),
-        ANIMATED_ID => std::fs::read(animated_path()).unwrap(),
-        _ => return problem(StatusCode::NOT_FOUND, "no such scene"),
-    };
-    mock.log().scene_downloads += 1;
-    bytes.into_response()
-}
-
-async fn serve_on(mock: Arc<Mock>, listener: tokio::net::TcpListener) {
-    let app = Router::new()
-        .route("/v1/workers", post(register))
-        .route("/v1/leases", post(lease))
-        .route("/v1/leases/{id}/heartbeat", post(heartbeat))
-        .route("/v1/leases/{id}/result", put(result))
-        .route("/v1/leases/{id}", delete(release))
-        .route("/v1/workers/{id}", delete(deregister))
-        .route("/v1/scenes/{id}/data", get(scene))
-        .layer(middleware::from_fn_with_state(mock.clone(), auth))
-        .with_state(mock);
-    tokio::spawn(async move { axum::serve(listener, app).await.unwrap() });
-}
-
-/// Starts a mock; returns its base URL.
-async fn start(mock: &Arc<Mock>) -> String {
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let base = format!("http://{}", listener.local_addr().unwrap());
-    serve_on(mock.clone(), listener).await;
-    base
 }
 
 fn config(base: &str) -> WorkerConfig {
@@ -571,7 +382,9 @@ async fn frames_of_an_animation_refit_and_report_how_their_scene_was_prepared() 
 /// right after it; every unit is still uploaded bit-exactly, in lease order.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn requests_the_next_lease_while_a_unit_renders() {
-    let mock = Mock::new(3000, vec![small("a", 0, [0, 2]), small("b", 8, [0, 256]), small("c", 0, [2, 4])]);
+    // "a" is long enough (64 samples) that the prefetch's request, sent as it starts, is not
+    // overtaken by its result on a loaded machine.
+    let mock = Mock::new(3000, vec![small("a", 0, [0, 64]), small("b", 8, [0, 256]), small("c", 0, [64, 66])]);
     let base = start(&mock).await;
     let worker = spawn_worker(&base);
     wait_until("three results arrive", Duration::from_secs(30), || mock.log().results.len() == 3).await;

@@ -7,6 +7,9 @@ use super::*;
 async fn results_carry_the_next_lease() {
     let mock = Mock::new(3000, vec![small("a", 0, [0, 4]), small("b", 8, [0, 4]), small("c", 0, [4, 8]), small("d", 8, [4, 8])]);
     mock.log().leases_with_results = true;
+    // a's and b's leases come from lease requests (the loop's, then the prefetch's sent while a
+    // renders); a's result must not be answered before b's request took b.
+    mock.log().carry_after_lease_requests = 2;
     let base = start(&mock).await;
     let worker = spawn_worker(&base);
     wait_until("four results arrive", Duration::from_secs(30), || mock.log().results.len() == 4).await;
@@ -33,6 +36,7 @@ async fn a_lease_carried_into_a_shutdown_is_given_back() {
     let mock = Mock::new(3000, vec![small("a", 0, [0, 4]), small("b", 8, [0, 4]), small("c", 0, [4, 8])]);
     mock.log().leases_with_results = true;
     mock.log().slow_results.insert("a".into());
+    mock.log().carry_after_lease_requests = 2;
     let base = start(&mock).await;
     let worker = spawn_worker(&base);
     // a's result is on its way and will be answered, with c, half a second later.
