@@ -47,3 +47,35 @@ fn render_refuses_bad_arguments_with_a_clear_message() {
         assert!(err.contains(expect), "{args:?}: {err}");
     }
 }
+
+/// A worker on a CPU without AVX2 or FMA renders the same bits as one with them. glibc picks its
+/// libm variants (`sincosf`, `expf`, `logf`, `powf`, …) by CPU at run time, and its FMA variants
+/// may round differently (its `powf` does, in 3 of 67 M arguments here); were the tracer's results
+/// to depend on that choice, a farm of mixed machines would merge images that depend on who
+/// rendered what. `GLIBC_TUNABLES` hides AVX2 and FMA from this process's glibc, which then takes
+/// its SSE2 variants (names for glibc ≥ 2.33 and before; a glibc that knows neither takes the same
+/// variants twice, and the test checks nothing new there).
+#[test]
+fn a_cpu_without_avx2_or_fma_renders_the_same_bits() {
+    const WITHOUT_FMA: &str = "glibc.cpu.hwcaps=-AVX2_Usable,-FMA_Usable,-FMA4_Usable,-AVX2,-FMA,-FMA4";
+    let dir = temp_dir("cpu-variants");
+    // Sine and cosine (diffuse and GGX warps, the lens), exp (absorption), log and exp (the Phong
+    // lobe), pow (sRGB textures, decoded at load).
+    for scene in ["cornell-box", "glossy", "absorption", "phong", "textured", "depth-of-field"] {
+        let render = |tunables: Option<&str>| {
+            let exr = dir.join(format!("{scene}-{}.exr", if tunables.is_some() { "sse2" } else { "native" }));
+            let mut command = Command::new(tessera_bin());
+            command.args(["render", scene, "--spp", "4", "--width", "64", "--height", "64", "-o"]).arg(&exr);
+            match tunables {
+                Some(t) => command.env("GLIBC_TUNABLES", t),
+                None => command.env_remove("GLIBC_TUNABLES"),
+            };
+            let out = command.output().expect("run tessera");
+            assert!(out.status.success(), "{scene}: {}", String::from_utf8_lossy(&out.stderr));
+            let (img, _) = decode_exr(&std::fs::read(&exr).unwrap()).unwrap();
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+            (bits(img.rgb.as_flattened()), bits(img.variance.as_flattened()), bits(&img.samples))
+        };
+        assert!(render(None) == render(Some(WITHOUT_FMA)), "{scene}: the image depends on the CPU's libm variants");
+    }
+}
