@@ -382,9 +382,9 @@ async fn frames_of_an_animation_refit_and_report_how_their_scene_was_prepared() 
 /// right after it; every unit is still uploaded bit-exactly, in lease order.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn requests_the_next_lease_while_a_unit_renders() {
-    // "a" is long enough (64 samples) that the prefetch's request, sent as it starts, is not
-    // overtaken by its result on a loaded machine.
-    let mock = Mock::new(3000, vec![small("a", 0, [0, 64]), small("b", 8, [0, 256]), small("c", 0, [64, 66])]);
+    // "a" is as long as "b" (256 samples) so that the prefetch's request, sent as it starts, is
+    // not overtaken by its result on a loaded machine.
+    let mock = Mock::new(3000, vec![small("a", 0, [0, 256]), small("b", 8, [0, 256]), small("c", 0, [256, 258])]);
     let base = start(&mock).await;
     let worker = spawn_worker(&base);
     wait_until("three results arrive", Duration::from_secs(30), || mock.log().results.len() == 3).await;
