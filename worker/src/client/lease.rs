@@ -1,12 +1,14 @@
 //! What every lease held needs, in hand or prefetched: heartbeats that keep it alive, and
 //! giving it back.
-use super::RELEASE_ATTEMPTS;
 use super::api::{Api, CallError, HeartbeatAnswer};
 use super::retry::RETRY;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 use tessera_proto::Registration;
 use tracing::{debug, warn};
+
+/// Attempts to give a lease back before leaving it to expire.
+const RELEASE_ATTEMPTS: u32 = 3;
 
 /// Heartbeats the lease every `every` and returns once it is lost, saying why. Transient
 /// failures are retried at the same pace until the lease's deadline passes.

@@ -122,7 +122,6 @@ pub const SHUTDOWN_GRACE: Duration = Duration::from_secs(2);
 const LEASE_DRAIN: Duration = Duration::ZERO;
 /// Polling while the coordinator has no work (204), and after a unit that could not be worked.
 const IDLE: Backoff = Backoff::new(Duration::from_millis(50), Duration::from_secs(1));
-const RELEASE_ATTEMPTS: u32 = 3;
 
 /// Runs a worker until `shutdown` resolves (then finishes up as described in the module docs).
 ///
