@@ -141,7 +141,8 @@ async fn result(State(mock): State<Arc<Mock>>, Path(id): Path<String>, RawQuery(
             return problem(StatusCode::SERVICE_UNAVAILABLE, "try again");
         }
     }
-    if query.as_deref() == Some("next=true") {
+    let asks_for_next = query.as_deref() == Some("next=true");
+    if asks_for_next {
         let wanted = mock.log().carry_after_lease_requests;
         wait_until("the lease requests sent before this result", Duration::from_secs(30), || mock.log().lease_requests.len() >= wanted).await;
     }
@@ -149,7 +150,7 @@ async fn result(State(mock): State<Arc<Mock>>, Path(id): Path<String>, RawQuery(
     if log.stale_results.contains(&id) {
         return problem(StatusCode::CONFLICT, "stale");
     }
-    if query.as_deref() != Some("next=true") || !log.leases_with_results {
+    if !asks_for_next || !log.leases_with_results {
         return StatusCode::NO_CONTENT.into_response();
     }
     match log.script.pop_front() {
