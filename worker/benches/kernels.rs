@@ -4,10 +4,6 @@
 //! renders and the comparison with Mitsuba 3 are `tessera-bench` subcommands; these isolate one
 //! kernel each, so a change to one shows up without the noise of the rest:
 //! - `sampler/*`: one 2D draw (Sobol, independent) at a fresh (pixel, sample) per iteration;
-//!   `sampler/sobol_memo_x8` and `sampler/sobol_lanes_x8`: eight Sobol draws from seeds the
-//!   pixel has already hashed (as renders draw), one sampler after another and all eight at
-//!   once ([`tessera_worker::tracer::sampler::lanes`]: `x8` draws once per lane per call, `x16`
-//!   twice, `_sse2` is the copy a CPU without AVX2 runs);
 //! - `accel/closest` and `accel/occluded`: rays from points on the box's surfaces in random
 //!   directions (the rays a path tracer traces after the camera), watertight test included;
 //! - `path/li`: one whole camera path sample (`mis` + Sobol, the matte kernel the Cornell box
@@ -23,8 +19,7 @@ use tessera_worker::tracer::film::Tile;
 use tessera_worker::tracer::integrator::{Integrator, PathSettings};
 use tessera_worker::tracer::render::{RenderSettings, render_tile};
 use tessera_worker::tracer::ray::Ray;
-use tessera_worker::tracer::sampler::lanes::{self, LANES};
-use tessera_worker::tracer::sampler::{PixelSeeds, Sampler, SamplerKind};
+use tessera_worker::tracer::sampler::{Sampler, SamplerKind};
 use tessera_worker::tracer::Scene;
 
 fn cornell() -> Scene {
@@ -71,37 +66,6 @@ fn sampler(c: &mut Criterion) {
                 i = i.wrapping_add(1);
                 let mut s = Sampler::start(kind, 7, i & 255, i >> 8, i);
                 black_box(s.get_2d())
-            })
-        });
-    }
-    // Eight pixels of a row, their first 16 dimensions' seeds hashed before timing starts.
-    let pixels: Vec<PixelSeeds> = (0..LANES as u32).map(|px| PixelSeeds::new(SamplerKind::Sobol, 7, px, 3)).collect();
-    let fresh = |index: u32| -> [Sampler; LANES] { std::array::from_fn(|lane| Sampler::for_pixel(&pixels[lane], index)) };
-    for _ in 0..8 {
-        lanes::get_2d(&mut fresh(0));
-    }
-    let mut i = 0u32;
-    g.bench_function("sobol_memo_x8", |b| {
-        b.iter(|| {
-            i = i.wrapping_add(1);
-            let mut s = fresh(i & 1023);
-            s.each_mut().map(|s| (0..8).map(|_| s.get_2d()).fold(Vec2::ZERO, |a, v| a + v))
-        })
-    });
-    g.bench_function("sobol_lanes_x8", |b| {
-        b.iter(|| {
-            i = i.wrapping_add(1);
-            let mut s = fresh(i & 1023);
-            (0..8).map(|_| lanes::get_2d(&mut s)).fold([Vec2::ZERO; LANES], |a, v| std::array::from_fn(|k| a[k] + v[k]))
-        })
-    });
-    type Pairs = fn(&mut [Sampler; LANES]) -> [[Vec2; LANES]; 2];
-    for (name, draw) in [("sobol_lanes_x16", lanes::get_2d_x2 as Pairs), ("sobol_lanes_x16_sse2", lanes::get_2d_x2_baseline)] {
-        g.bench_function(name, |b| {
-            b.iter(|| {
-                i = i.wrapping_add(1);
-                let mut s = fresh(i & 1023);
-                (0..4).map(|_| draw(&mut s)).fold([Vec2::ZERO; LANES], |a, [v, w]| std::array::from_fn(|k| a[k] + v[k] + w[k]))
             })
         });
     }

@@ -19,16 +19,16 @@
 //! masks and textured/non-Lambert surfaces is inside `if E::… {}` blocks that vanish from
 //! kernels without them. A smooth glass bounce is a delta: no light sample is taken there, and
 //! emission found after it counts in full for every estimator.
+use crate::tracer::bsdf::{Bsdf, BsdfSample};
 use crate::tracer::effects::{AllEffects, EffectSet};
-use crate::tracer::light::LightSet;
-use crate::tracer::path::{Bounce, Path};
-use crate::tracer::ray::Ray;
+use crate::tracer::light::{LightSet, Target};
+use crate::tracer::ray::{Ray, SHADOW_EPSILON};
 use crate::tracer::ray_log::RayLog;
 use crate::tracer::sampler::Sampler;
 use crate::tracer::sampling::power_heuristic;
 use crate::tracer::scene::{NO_LIGHT, Scene};
 use crate::tracer::surface::Surface;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::str::FromStr;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -105,9 +105,19 @@ pub struct PathSample {
 pub struct Integrator<'a> {
     pub(crate) scene: &'a Scene,
     pub(crate) lights: LightSet<'a>,
-    pub(crate) settings: PathSettings,
+    settings: PathSettings,
     /// Where every traced ray is recorded, when a benchmark asks (see [`RayLog`]).
     pub(crate) ray_log: Option<&'a RayLog>,
+}
+
+/// The previous bounce, for MIS weights of emission found by a BSDF-sampled ray.
+#[derive(Clone, Copy)]
+struct Bounce {
+    p: Vec3,
+    n: Vec3,
+    bsdf_pdf: f32,
+    /// A delta bounce: light sampling could not have found what this ray finds.
+    specular: bool,
 }
 
 impl<'a> Integrator<'a> {
@@ -126,24 +136,73 @@ impl<'a> Integrator<'a> {
         self.li_for::<AllEffects>(ray, sampler)
     }
 
-    /// Radiance along `ray` by kernel `E` (see [`crate::tracer::effects`]): the stages of
-    /// [`crate::tracer::path`], one bounce after another.
-    pub fn li_for<E: EffectSet>(&self, ray: Ray, sampler: &mut Sampler) -> PathSample {
-        let mut path = Path::new(ray);
-        while let Some(s) = self.arrive::<E>(&mut path, sampler) {
-            let Some(shaded) = self.shade::<E>(&mut path, &s, sampler) else { break };
-            if let Some(test) = &shaded.shadow {
-                self.test_shadow::<E>(&mut path, test);
+    /// Radiance along `ray` by kernel `E` (see [`crate::tracer::effects`]).
+    pub fn li_for<E: EffectSet>(&self, mut ray: Ray, sampler: &mut Sampler) -> PathSample {
+        let est = self.settings.estimator;
+        let (mut l, mut beta, mut max_weight) = (Vec3::ZERO, Vec3::ONE, 1.0f32);
+        let mut prev: Option<Bounce> = None;
+        // Absorption coefficient of the medium the ray travels in (zero: air).
+        let mut medium = Vec3::ZERO;
+        let mut rays = 0u32;
+        for depth in 0.. {
+            let u_glass = if E::GLASS { sampler.get_1d() } else { 0.0 };
+            rays += 1;
+            let hit = self.surface::<E>(&ray, u_glass);
+            if E::GLASS && medium != Vec3::ZERO {
+                beta *= transmittance(medium, hit.as_ref().map_or(f32::INFINITY, |s| s.dist));
             }
-            if !self.continue_path::<E>(&mut path, &s, shaded.bs, sampler) {
+            let Some(s) = hit else {
+                l += beta * self.escaped(est, prev, ray.dir);
+                break;
+            };
+            let bs = if est == Estimator::Naive {
+                // The seed's first tracer: emit or reflect, each with probability ½.
+                let (u_choice, u_dir) = (sampler.get_1d(), sampler.get_2d());
+                if u_choice < 0.5 {
+                    l += beta * 2.0 * s.le;
+                    break;
+                }
+                let Some(bsdf) = s.bsdf.filter(|_| depth < self.settings.max_depth) else { break };
+                // Uniform directions never hit a delta lobe: glass is sampled by its BSDF.
+                let bs = if E::GLASS && bsdf.transmits() { bsdf.sample(s.wo, (u_choice - 0.5) * 2.0, u_dir) } else { bsdf.sample_uniform(s.wo, u_dir) };
+                let Some(mut bs) = bs else { break };
+                bs.pdf *= 0.5;
+                bs
+            } else {
+                l += beta * self.emitted(est, depth, prev, &s);
+                let u_light = sampler.get_2d();
+                let (d_lobe, u_dir) = (sampler.defer_1d(), sampler.get_2d());
+                let Some(bsdf) = s.bsdf.filter(|_| depth < self.settings.max_depth) else { break };
+                let delta = E::GLASS && bsdf.is_specular();
+                if matches!(est, Estimator::Light | Estimator::Mis) && !delta && !self.lights.is_empty() {
+                    l += beta * self.direct::<E>(est, &s, &bsdf, medium, u_light, &mut rays);
+                }
+                let u_lobe = if bsdf.chooses_lobes() { sampler.deferred(d_lobe) } else { 0.0 };
+                let Some(bs) = bsdf.sample(s.wo, u_lobe, u_dir) else { break };
+                bs
+            };
+            let Some(w) = self.scatter::<E>(&s, &bs, &mut ray) else { break };
+            beta *= w;
+            if E::GLASS && bs.wi.z < 0.0 {
+                medium = s.medium_behind(medium);
+            }
+            prev = Some(Bounce { p: s.p.p, n: s.frame.n, bsdf_pdf: bs.pdf, specular: bs.specular });
+            if !beta.is_finite() {
+                // An overflowed throughput makes the sample meaningless (∞·0 later): report it
+                // as non-finite, so it is dropped and counted, and keep max_weight finite.
+                return PathSample { radiance: Vec3::NAN, max_weight, rays };
+            }
+            max_weight = max_weight.max(beta.max_element());
+            let d_roulette = sampler.defer_1d();
+            if !survives_roulette(self.settings.roulette, depth, &mut beta, || sampler.deferred(d_roulette)) {
                 break;
             }
         }
-        path.sample()
+        PathSample { radiance: l, max_weight, rays }
     }
 
     /// Radiance picked up when a ray leaves the scene.
-    pub(crate) fn escaped(&self, est: Estimator, prev: Option<Bounce>, dir: Vec3) -> Vec3 {
+    fn escaped(&self, est: Estimator, prev: Option<Bounce>, dir: Vec3) -> Vec3 {
         let lb = self.lights.background();
         match (est, prev) {
             (Estimator::Naive | Estimator::Bsdf, _) | (_, None) => lb,
@@ -157,7 +216,7 @@ impl<'a> Integrator<'a> {
     }
 
     /// Emission at a hit, weighted as the estimator requires.
-    pub(crate) fn emitted(&self, est: Estimator, depth: u32, prev: Option<Bounce>, s: &Surface) -> Vec3 {
+    fn emitted(&self, est: Estimator, depth: u32, prev: Option<Bounce>, s: &Surface) -> Vec3 {
         if s.le == Vec3::ZERO {
             return Vec3::ZERO;
         }
@@ -172,6 +231,92 @@ impl<'a> Integrator<'a> {
             _ => Vec3::ZERO,
         }
     }
+
+    /// Next-event estimation: one light sample, MIS-weighted for `Mis`.
+    fn direct<E: EffectSet>(&self, est: Estimator, s: &Surface, bsdf: &Bsdf, medium: Vec3, u: Vec2, rays: &mut u32) -> Vec3 {
+        let Some(ls) = self.lights.sample_for::<E>(s.p.p, s.frame.n, u) else { return Vec3::ZERO };
+        let wi = s.frame.to_local(ls.wi);
+        let side = ls.wi.dot(s.ng);
+        // Only glass sees lights behind the surface, and only where both normals agree.
+        let through = E::GLASS && bsdf.transmits() && side < 0.0 && wi.z < 0.0;
+        if !through && (side <= 0.0 || wi.z <= 0.0) {
+            return Vec3::ZERO;
+        }
+        let f = bsdf.eval(s.wo, wi);
+        if f == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let (shadow, dist) = match ls.target {
+            Target::Point { p, ng } => (s.p.spawn_to(s.ng, &p, ng), (p.p - s.p.p).length()),
+            Target::Infinite => (s.p.spawn(s.ng, ls.wi), f32::INFINITY),
+        };
+        let t_max = if dist.is_finite() { 1.0 - SHADOW_EPSILON } else { f32::INFINITY };
+        *rays += 1;
+        if self.occluded::<E>(&shadow, t_max) {
+            return Vec3::ZERO;
+        }
+        let tr = if E::GLASS {
+            let m = if through { s.medium_behind(medium) } else { medium };
+            if m == Vec3::ZERO { Vec3::ONE } else { transmittance(m, dist) }
+        } else {
+            Vec3::ONE
+        };
+        let mis = if est == Estimator::Mis && !ls.delta {
+            power_heuristic(1.0, ls.pdf, 1.0, bsdf.pdf(s.wo, wi))
+        } else {
+            1.0
+        };
+        f * tr * ls.li * (wi.z.abs() * mis / ls.pdf)
+    }
+
+    /// Continues the path along a BSDF sample; returns the throughput factor f·|cos|/pdf.
+    fn scatter<E: EffectSet>(&self, s: &Surface, bs: &BsdfSample, ray: &mut Ray) -> Option<Vec3> {
+        let wi = s.frame.to_world(bs.wi);
+        // A direction on one side of the shading normal but the other of the surface would
+        // pass through it (or, for glass, fail to).
+        let side = wi.dot(s.ng);
+        let ok = if E::GLASS && bs.wi.z < 0.0 { side < 0.0 } else { side > 0.0 };
+        if !ok || !(bs.pdf > 0.0) {
+            return None;
+        }
+        let w = bs.f * (bs.wi.z.abs() / bs.pdf);
+        if !w.is_finite() {
+            return None;
+        }
+        *ray = s.p.spawn(s.ng, wi);
+        Some(w)
+    }
+}
+
+/// Beer–Lambert: the fraction of light left after `dist` metres in a medium absorbing `sigma`
+/// per metre (channels with σ = 0 keep everything, even over an infinite distance).
+fn transmittance(sigma: Vec3, dist: f32) -> Vec3 {
+    Vec3::select(sigma.cmpgt(Vec3::ZERO), (-sigma * dist).exp(), Vec3::ONE)
+}
+
+/// Applies Russian roulette; false when the path stops. Survivors are reweighted by 1/q.
+/// `u` is asked for only when the path may stop.
+fn survives_roulette(rr: Roulette, depth: u32, beta: &mut Vec3, u: impl FnOnce() -> f32) -> bool {
+    let q = match rr {
+        Roulette::Off => return true,
+        Roulette::Threshold { threshold, p } => {
+            if beta.max_element() >= threshold {
+                return true;
+            }
+            1.0 - p
+        }
+        Roulette::Throughput { min_depth } => {
+            if depth + 1 < min_depth || beta.max_element() >= 1.0 {
+                return true;
+            }
+            beta.max_element()
+        }
+    };
+    if !(u() < q) {
+        return false;
+    }
+    *beta /= q;
+    true
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ use crate::dispatch_kernel;
 use crate::tracer::camera::RasterCamera;
 use crate::tracer::effects::{EffectSet, KernelBits};
 use crate::tracer::film::{PixelSums, Tile, TileSums};
-use crate::tracer::integrator::{Integrator, PathSample, PathSettings};
+use crate::tracer::integrator::{Integrator, PathSettings};
 use crate::tracer::ray_log::RayLog;
 use crate::tracer::sampler::{PixelSeeds, Sampler, SamplerKind};
 use crate::tracer::scene::Scene;
@@ -147,17 +147,6 @@ pub(crate) struct RowStats {
 }
 
 impl RowStats {
-    /// Adds camera sample `s` to its pixel's `sums` (a non-finite one is dropped and counted).
-    pub(crate) fn add_sample(&mut self, sums: &mut PixelSums, s: &PathSample) {
-        self.rays += u64::from(s.rays);
-        if s.radiance.is_finite() {
-            sums.add_sample(s.radiance);
-            self.max_weight = self.max_weight.max(s.max_weight);
-        } else {
-            self.dropped += 1;
-        }
-    }
-
     /// Integer sums and a maximum: the same whatever order rows are added in.
     pub(crate) fn add_to(self, out: &mut TileSums) {
         out.dropped += self.dropped;
@@ -177,10 +166,6 @@ pub(crate) fn render_row<E: EffectSet>(
     samples: Range<u32>,
     pixels: &mut [PixelSums],
 ) -> RowStats {
-    static LANES_ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    if *LANES_ON.get_or_init(|| std::env::var_os("TESSERA_LANES").is_some()) {
-        return crate::tracer::lanes::render_row_lanes::<E>(integrator, camera, settings, x0, py, samples, pixels);
-    }
     let mut stats = RowStats::default();
     for (col, sums) in pixels.iter_mut().enumerate() {
         let px = x0 + col as u32;
@@ -189,7 +174,14 @@ pub(crate) fn render_row<E: EffectSet>(
             let mut sampler = Sampler::for_pixel(&seeds, index);
             let jitter = sampler.get_2d();
             let ray = if E::DOF { camera.ray_lens(px, py, jitter, sampler.get_2d()) } else { camera.ray(px, py, jitter) };
-            stats.add_sample(sums, &integrator.li_for::<E>(ray, &mut sampler));
+            let s = integrator.li_for::<E>(ray, &mut sampler);
+            stats.rays += u64::from(s.rays);
+            if s.radiance.is_finite() {
+                sums.add_sample(s.radiance);
+                stats.max_weight = stats.max_weight.max(s.max_weight);
+            } else {
+                stats.dropped += 1;
+            }
         }
     }
     stats

@@ -44,8 +44,6 @@ use std::str::FromStr;
 
 #[path = "sobol.rs"]
 mod sobol;
-#[path = "sampler_lanes.rs"]
-pub mod lanes;
 use sobol::{laine_karras, sobol_dim1_of_reversed};
 
 /// Largest f32 below 1 (`1 - 2^-24`): the upper bound of every sample.
@@ -215,15 +213,6 @@ impl<'p> Sampler<'p> {
     #[cfg(test)]
     fn boundary_value(&self, d: u32) -> Option<f32> {
         self.boundary.map(|p| if p >> (d % 64) & 1 == 1 { ONE_MINUS_EPSILON } else { 0.0 })
-    }
-
-    /// Whether [`lanes`] may compute this sampler's draws (not a test's boundary sampler).
-    fn vector_draws_allowed(&self) -> bool {
-        #[cfg(test)]
-        if self.boundary.is_some() {
-            return false;
-        }
-        true
     }
 
     /// The next 1D value, in `[0, ONE_MINUS_EPSILON]`; consumes one dimension.
