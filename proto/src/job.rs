@@ -84,6 +84,9 @@ pub struct RenderParams {
 pub enum JobState {
     Queued,
     Running,
+    /// Held by request (`POST /v1/jobs/{id}/pause`): no new units are leased; units already
+    /// leased finish and are merged. `…/resume` makes it `queued` until a worker takes a unit.
+    Paused,
     Done,
     Failed,
     Canceled,

@@ -29,6 +29,8 @@ pub fn app(state: AppState) -> Router {
         .routes(routes!(scenes::data))
         .routes(routes!(jobs::create, jobs::list))
         .routes(routes!(jobs::get, jobs::cancel))
+        .routes(routes!(jobs::pause))
+        .routes(routes!(jobs::resume))
         .routes(routes!(images::image_exr))
         .routes(routes!(images::preview_png))
         .routes(routes!(images::frame_exr))

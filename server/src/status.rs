@@ -68,6 +68,9 @@ fn eta(job: &JobRun, done: f64, rate: f64, noise: Option<f64>, elapsed_s: f64) -
     if job.state.is_final() {
         return Some(0.0);
     }
+    if job.state == JobState::Paused {
+        return None;
+    }
     if rate <= 0.0 {
         return None;
     }

@@ -99,6 +99,11 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
     let job_id = hash.as_str().unwrap().trim_start_matches("#/job/").to_string();
     // No worker yet: the job waits, and its preview has no samples.
     let first = b.until("the queued job's preview", 20, &format!("{SNAPSHOT} const s = snapshot(); return s.preview && s.state === 'queued' && s;")).await;
+    // Paused and resumed from its page while it waits.
+    b.click("#j-pause").await;
+    b.until("the paused job", 20, r#"return document.getElementById("j-state").textContent === "paused" && document.getElementById("j-pause").textContent === "Resume";"#).await;
+    b.click("#j-pause").await;
+    b.until("the resumed job", 20, r#"return document.getElementById("j-state").textContent === "queued" && document.getElementById("j-pause").textContent === "Pause";"#).await;
     farm.add_worker();
 
     let (progress, previews) = watch_to_the_end(&b).await;
@@ -107,8 +112,8 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
     assert_eq!((first["preview"]["mean"].as_f64(), first["preview"]["width"].as_u64()), (Some(0.0), Some(64)), "nothing merged: black");
     assert!(last["mean"].as_f64().unwrap() > 20.0, "the rendered box is not black: {last}");
     assert_ne!(first["preview"]["hash"], last["hash"], "the preview changed");
-    let drawn = b.js(r##"return [document.querySelectorAll("#j-chart polyline").length, document.getElementById("j-cancel").disabled];"##).await;
-    assert_eq!(drawn, json!([1, true]), "the noise history is drawn; a finished job cannot be canceled");
+    let drawn = b.js(r##"return [document.querySelectorAll("#j-chart polyline").length, document.getElementById("j-cancel").disabled, document.getElementById("j-pause").disabled];"##).await;
+    assert_eq!(drawn, json!([1, true, true]), "the noise history is drawn; a finished job cannot be canceled or paused");
     let contrib = b.js(r##"return document.querySelector("#j-contrib tbody").textContent;"##).await;
     assert!(contrib.as_str().unwrap().contains("100%"), "one worker did everything: {contrib}");
 

@@ -42,6 +42,7 @@ class JobView {
     img.removeAttribute("src");
     delete img.dataset.samples;
     $("j-cancel").onclick = () => this.act(() => this.cancel());
+    $("j-pause").onclick = () => this.act(() => this.togglePause());
     $("j-exr").onclick = () => this.act(() => download(`${this.path}/image.exr`, `${this.id}.exr`));
     $("j-png").onclick = () => this.act(() => download(`${this.path}/preview.png`, `${this.id}.png`));
     $("j-target").oninput = () => this.job && this.chart(this.job);
@@ -69,11 +70,19 @@ class JobView {
     this.update(job);
   }
 
+  /** Pauses a queued or running job, resumes a paused one. */
+  async togglePause() {
+    const action = this.job?.state === "paused" ? "resume" : "pause";
+    this.update(await (await call(`${this.path}/${action}`, { method: "POST" })).json());
+  }
+
   update(job) {
     this.job = job;
     const pct = Math.floor(job.progress.fraction * 100);
     $("j-state").replaceChildren(fmt.stateBadge(job.state));
     $("j-cancel").disabled = fmt.isFinal(job);
+    $("j-pause").disabled = fmt.isFinal(job);
+    $("j-pause").textContent = job.state === "paused" ? "Resume" : "Pause";
     $("j-progress").value = pct;
     const spp = `${job.progress.samples_done.toFixed(1)} of ${job.progress.samples_target} spp`;
     const eta = fmt.isFinal(job) ? "" : ` · ETA ${fmt.duration(job.eta_s)}`;

@@ -36,7 +36,7 @@ pub async fn metrics(State(st): State<AppState>) -> impl IntoResponse {
     let _ = writeln!(out, "# HELP tessera_merge_seconds_total Time spent merging results\n# TYPE tessera_merge_seconds_total counter\ntessera_merge_seconds_total {merge_s}");
     let sched = st.scheduler.lock().expect("lock");
     let _ = writeln!(out, "# HELP tessera_jobs Jobs by state\n# TYPE tessera_jobs gauge");
-    for state in [JobState::Queued, JobState::Running, JobState::Done, JobState::Failed, JobState::Canceled] {
+    for state in [JobState::Queued, JobState::Running, JobState::Paused, JobState::Done, JobState::Failed, JobState::Canceled] {
         let n = sched.jobs_newest_first().filter(|j| j.state == state).count();
         let _ = writeln!(out, "tessera_jobs{{state=\"{}\"}} {n}", format!("{state:?}").to_lowercase());
     }

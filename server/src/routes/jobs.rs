@@ -1,4 +1,4 @@
-//! `/v1/jobs`: submit, list, read, cancel (the images of a job are in `images.rs`).
+//! `/v1/jobs`: submit, list, read, pause, resume, cancel (the images of a job are in `images.rs`).
 use super::validate::job_config;
 use crate::error::{AppError, Json};
 use crate::state::{AppState, job_status};
@@ -6,7 +6,7 @@ use axum::extract::{Path, Query, State};
 use axum::http::{StatusCode, header};
 use axum::response::IntoResponse;
 use serde::Deserialize;
-use tessera_proto::{Job, JobList, JobRequest, Problem};
+use tessera_proto::{Job, JobList, JobRequest, JobState, Problem};
 
 /// Submit a job. At least one stop condition (spp, noise_target, time_limit_s).
 #[utoipa::path(post, path = "/v1/jobs", tag = "jobs", request_body = JobRequest,
@@ -80,3 +80,44 @@ pub async fn cancel(State(st): State<AppState>, Path(id): Path<String>) -> Resul
     get(State(st), Path(id)).await
 }
 
+
+/// Pause a job: it is leased no new units (other jobs get the workers); units already leased
+/// finish and are merged, and its render time and time limit stop until it is resumed.
+#[utoipa::path(post, path = "/v1/jobs/{id}/pause", tag = "jobs", params(("id" = String, Path)),
+    responses((status = 200, body = Job), (status = 404, body = Problem), (status = 409, body = Problem)))]
+pub async fn pause(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<Job>, AppError> {
+    set_paused(st, id, true).await
+}
+
+/// Resume a paused job (`queued` until a worker takes its next unit).
+#[utoipa::path(post, path = "/v1/jobs/{id}/resume", tag = "jobs", params(("id" = String, Path)),
+    responses((status = 200, body = Job), (status = 404, body = Problem), (status = 409, body = Problem)))]
+pub async fn resume(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<Job>, AppError> {
+    set_paused(st, id, false).await
+}
+
+async fn set_paused(st: AppState, id: String, pause: bool) -> Result<axum::Json<Job>, AppError> {
+    let outcome = st.scheduler.lock().expect("lock").set_paused(&id, pause, st.now());
+    match outcome {
+        None => return Err(AppError::not_found(format!("no job {id:?}"))),
+        Some(Err(state)) => {
+            let verb = if pause { "paused" } else { "resumed" };
+            return Err(AppError::new(StatusCode::CONFLICT, format!("job {id} has ended ({}) and cannot be {verb}", state_name(state))));
+        }
+        Some(Ok(_)) => {}
+    }
+    let st2 = st.clone();
+    if let Ok(Err(e)) = tokio::task::spawn_blocking(move || st2.checkpoint()).await {
+        tracing::error!(job = %id, "the pause or resume is not yet durable (retried at the next checkpoint): {e:#}");
+    }
+    st.notify(&id);
+    if !pause {
+        st.work_available.notify_waiters();
+    }
+    get(State(st), Path(id)).await
+}
+
+/// The state as the API spells it.
+fn state_name(state: JobState) -> String {
+    serde_json::to_value(state).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_else(|| format!("{state:?}"))
+}

@@ -65,6 +65,29 @@ async fn a_restarted_coordinator_resumes_from_its_last_checkpoint() {
 }
 
 #[tokio::test]
+async fn a_pause_is_durable_at_once_and_the_resumed_job_ends_with_the_same_image() {
+    let reference = {
+        let api = Api::new("pause-reference");
+        let id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
+        finish(&api, &id).await
+    };
+    let api = Api::new("pause-restart");
+    let id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
+    let w = register(&api).await;
+    let first = lease_all(&api, &w, 3).await;
+    api.post_json(&format!("/v1/jobs/{id}/pause"), &json!(null)).await.expect(StatusCode::OK);
+    assert_eq!(complete(&api, &first[0]).await, StatusCode::NO_CONTENT, "leased before the pause: merged");
+    // No checkpoint call here: the pause itself must have reached the store.
+    let api = api.crash_and_reopen(|_| {});
+    assert_eq!(api.job(&id).await["state"], "paused");
+    let w = register(&api).await;
+    api.post_json("/v1/leases", &json!({"worker_id": w})).await.expect(StatusCode::NO_CONTENT);
+    api.post_json(&format!("/v1/jobs/{id}/resume"), &json!(null)).await.expect(StatusCode::OK);
+    let got = finish(&api, &id).await;
+    assert!(pixel_layers(&got) == pixel_layers(&reference), "the paused and resumed image differs");
+}
+
+#[tokio::test]
 async fn a_corrupt_checkpoint_file_is_not_read_back() {
     let api = Api::new("durable-corrupt");
     let id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();

@@ -31,9 +31,11 @@ async fn openapi_documents_every_route_the_router_serves() {
     r.expect(StatusCode::OK);
     let doc = r.json();
     let paths = doc["paths"].as_object().expect("paths");
-    let served: [(&str, &[&str]); 19] = [
+    let served: [(&str, &[&str]); 21] = [
         ("/v1/jobs", &["get", "post"]),
         ("/v1/jobs/{id}", &["get", "delete"]),
+        ("/v1/jobs/{id}/pause", &["post"]),
+        ("/v1/jobs/{id}/resume", &["post"]),
         ("/v1/jobs/{id}/image.exr", &["get"]),
         ("/v1/jobs/{id}/preview.png", &["get"]),
         ("/v1/jobs/{id}/events", &["get"]),

@@ -208,6 +208,30 @@ async fn canceling_a_job_revokes_its_leases() {
 }
 
 #[tokio::test]
+async fn a_paused_job_leases_nothing_until_resumed_and_keeps_what_was_leased() {
+    let api = Api::new("w-pause");
+    let w = register(&api).await;
+    let job_id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
+    let l = lease(&api, &w).await;
+    let r = api.post_json(&format!("/v1/jobs/{job_id}/pause"), &json!(null)).await;
+    r.expect(StatusCode::OK);
+    assert_eq!((r.json()["state"].clone(), r.json()["eta_s"].clone()), (json!("paused"), Value::Null));
+    api.post_json("/v1/leases", &json!({"worker_id": w})).await.expect(StatusCode::NO_CONTENT);
+    put_result(&api, &l.lease_id, sums_for(&l, 1.0).encode()).await.expect(StatusCode::NO_CONTENT);
+    assert!(samples_done(&api, &job_id).await > 0.0, "the unit leased before the pause is merged");
+    assert_eq!(api.metric("tessera_jobs{state=\"paused\"}").await, "1");
+    let r = api.post_json(&format!("/v1/jobs/{job_id}/resume"), &json!(null)).await;
+    r.expect(StatusCode::OK);
+    assert_eq!(r.json()["state"], "queued");
+    lease(&api, &w).await;
+    assert_eq!(api.job(&job_id).await["state"], "running");
+    api.delete(&format!("/v1/jobs/{job_id}")).await.expect(StatusCode::OK);
+    let p = api.post_json(&format!("/v1/jobs/{job_id}/pause"), &json!(null)).await.problem(StatusCode::CONFLICT);
+    assert!(p.detail.contains("canceled"), "{p:?}");
+    api.post_json("/v1/jobs/nope/resume", &json!(null)).await.problem(StatusCode::NOT_FOUND);
+}
+
+#[tokio::test]
 async fn a_result_over_the_size_limit_is_413() {
     let api = Api::new("w-result-413");
     let r = put_result(&api, "l1-1", vec![0u8; (1024 * 1024 * 64) + 4096 + 1]).await;

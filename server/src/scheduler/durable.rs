@@ -130,7 +130,7 @@ impl Scheduler {
         job.elapsed_before_ms = rec.elapsed_ms;
         job.contributions = rec.contributions;
         match job.state {
-            JobState::Queued => {}
+            JobState::Queued | JobState::Paused => {}
             JobState::Running => job.started_ms = Some(now),
             _ => (job.started_ms, job.finished_ms) = (Some(now), Some(now)),
         }

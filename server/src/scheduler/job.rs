@@ -184,6 +184,36 @@ impl JobRun {
         self.contributions.entry(by.id).or_insert((by.name, 0)).1 += pixel_samples;
     }
 
+    /// Holds a queued or running job: its render time stops (a time limit waits too) and it is
+    /// offered no units. Err(state) when it has already ended.
+    pub fn pause(&mut self, now: u64) -> Result<(), JobState> {
+        match self.state {
+            JobState::Paused => Ok(()),
+            s if s.is_final() => Err(s),
+            _ => {
+                self.elapsed_before_ms = self.elapsed_ms(now);
+                self.started_ms = None;
+                self.state = JobState::Paused;
+                self.revision += 1;
+                Ok(())
+            }
+        }
+    }
+
+    /// Lets a paused job be leased again: `Queued` until its next unit is issued, when the
+    /// render time goes on from where it stopped. Err(state) when it has already ended.
+    pub fn resume(&mut self) -> Result<(), JobState> {
+        match self.state {
+            JobState::Paused => {
+                self.state = JobState::Queued;
+                self.revision += 1;
+                Ok(())
+            }
+            s if s.is_final() => Err(s),
+            _ => Ok(()),
+        }
+    }
+
     pub fn finish(&mut self, state: JobState, now: u64, message: Option<String>) {
         if self.state.is_final() {
             return;

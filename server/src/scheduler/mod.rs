@@ -14,6 +14,7 @@
 //! - A worker's `current` unit is its oldest lease (the one it renders; a newer one waits).
 //! - Ids of leases and workers carry the coordinator's `epoch` (its boot count), so an id from
 //!   before a restart never names something after it.
+//! - A paused job is offered no units; the units it had leased finish and are merged.
 //! - Jobs of higher priority go first; equal priorities share workers (fewest leases in flight
 //!   first), then first come, first served.
 mod durable;
@@ -27,6 +28,8 @@ mod tests_durable;
 mod tests_frames;
 #[cfg(test)]
 mod tests_numerics;
+#[cfg(test)]
+mod tests_pause;
 mod tile;
 
 pub use durable::{JobCheckpoint, JobRecord, RestoredTile, TileCheckpoint, TileMark};
@@ -190,7 +193,7 @@ impl Scheduler {
         let pick = self
             .jobs
             .values()
-            .filter(|j| !j.is_blocked(worker, self.max_failures))
+            .filter(|j| j.state != JobState::Paused && !j.is_blocked(worker, self.max_failures))
             .filter_map(|j| j.next_unit(self.affinity(j, last_frame).as_ref()).map(|u| (j, u)))
             .min_by_key(|(j, _)| (-j.cfg.priority, in_flight.get(&j.seq).copied().unwrap_or(0), j.seq))
             .map(|(j, (tile, batch))| (j.seq, tile, batch));
@@ -321,6 +324,14 @@ impl Scheduler {
         let state = job.state;
         self.revoke_unwanted(seq);
         Some(state)
+    }
+
+    /// Pauses (`pause`) or resumes a job; None for an unknown job, Err(state) for one that has
+    /// ended. The job's state after it otherwise.
+    pub fn set_paused(&mut self, id: &str, pause: bool, now: u64) -> Option<Result<JobState, JobState>> {
+        let job = self.jobs.get_mut(self.by_id.get(id)?)?;
+        let done = if pause { job.pause(now) } else { job.resume() };
+        Some(done.map(|()| job.state))
     }
 
     /// Marks a job failed (e.g. its scene cannot be loaded).

@@ -154,6 +154,24 @@ fn time_limits_count_render_time_across_restarts() {
 }
 
 #[test]
+fn a_paused_job_stays_paused_across_a_restart() {
+    let mut disk = Disk::default();
+    let mut a = Scheduler::new(TIMEOUT);
+    let w = a.register_worker("a", 1, 0);
+    a.submit(config("j", 8, 0));
+    a.lease(&w, 100).unwrap().unwrap();
+    a.set_paused("j", true, 400).unwrap().unwrap();
+    disk.save(&mut a, 500);
+    let mut b = disk.boot(2, None);
+    let w = b.register_worker("a", 1, 0);
+    let job = b.job("j").unwrap();
+    assert_eq!((job.state, job.elapsed_ms(9_000)), (JobState::Paused, 300));
+    assert_eq!(b.lease(&w, 9_000).unwrap(), None, "still paused");
+    b.set_paused("j", false, 9_000).unwrap().unwrap();
+    assert!(b.lease(&w, 9_001).unwrap().is_some());
+}
+
+#[test]
 fn a_worker_that_keeps_failing_a_job_is_kept_off_it() {
     let mut s = Scheduler::with_epoch(TIMEOUT, 3, 0);
     let bad = s.register_worker("bad", 1, 0);
