@@ -1,5 +1,5 @@
 use super::*;
-use tessera_proto::{JobRequest, RenderParams, WirePixel};
+use tessera_proto::{JobRequest, Lease, PartialSums, RenderParams, WirePixel};
 
 const TIMEOUT: u64 = 1000;
 

@@ -3,7 +3,7 @@
 //! scheduler's merge of many units, which is what the EXR is made from.
 use super::tests::{config, drain};
 use super::*;
-use tessera_proto::WirePixel;
+use tessera_proto::{Lease, PartialSums, WirePixel};
 
 /// A unit's sums with values of wildly different magnitudes (1e-6 … 1e6, pseudo-random per
 /// pixel and batch), so f64 addition in a different order gives different bits.
