@@ -136,7 +136,8 @@ async fn problem_text(resp: reqwest::Response) -> String {
 pub fn progress_line(job: &Job) -> String {
     let noise = job.noise.map_or("-".into(), |n| format!("{n:.2e}"));
     let eta = job.eta_s.map_or("-".into(), |e| format!("{e:.1}s"));
-    format!("{:.1}/{} spp, noise {noise}, {:.0} samples/s, eta {eta}, {} workers", job.progress.samples_done, job.progress.samples_target, job.samples_per_s, job.workers)
+    let paused = if job.state == tessera_proto::JobState::Paused { "paused, " } else { "" };
+    format!("{paused}{:.1}/{} spp, noise {noise}, {:.0} samples/s, eta {eta}, {} workers", job.progress.samples_done, job.progress.samples_target, job.samples_per_s, job.workers)
 }
 
 /// Uploads a scene file, or passes a name/id through.
