@@ -34,6 +34,14 @@ async fn finish(api: &Api, job: &str) -> Vec<u8> {
     img.body.to_vec()
 }
 
+/// The tiled job rendered to the end without interruption: the image every disturbed run of
+/// it must reproduce.
+async fn undisturbed(name: &str) -> Vec<u8> {
+    let api = Api::new(name);
+    let id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
+    finish(&api, &id).await
+}
+
 fn pixel_layers(exr: &[u8]) -> (Vec<[f32; 3]>, Vec<f32>) {
     let (img, _) = crate::output::decode_exr(exr).unwrap();
     (img.rgb, img.samples)
@@ -41,11 +49,7 @@ fn pixel_layers(exr: &[u8]) -> (Vec<[f32; 3]>, Vec<f32>) {
 
 #[tokio::test]
 async fn a_restarted_coordinator_resumes_from_its_last_checkpoint() {
-    let reference = {
-        let api = Api::new("durable-reference");
-        let id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
-        finish(&api, &id).await
-    };
+    let reference = undisturbed("durable-reference").await;
     let api = Api::new("durable-restart");
     let id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
     let w = register(&api).await;
@@ -66,11 +70,7 @@ async fn a_restarted_coordinator_resumes_from_its_last_checkpoint() {
 
 #[tokio::test]
 async fn a_pause_is_durable_at_once_and_the_resumed_job_ends_with_the_same_image() {
-    let reference = {
-        let api = Api::new("pause-reference");
-        let id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
-        finish(&api, &id).await
-    };
+    let reference = undisturbed("pause-reference").await;
     let api = Api::new("pause-restart");
     let id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
     let w = register(&api).await;
