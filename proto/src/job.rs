@@ -15,7 +15,8 @@ pub struct JobRequest {
     pub spp: Option<u32>,
     /// Stop each tile once its estimated relative MSE is at or below this.
     pub noise_target: Option<f64>,
-    /// Stop issuing work after this many seconds and finish with what is merged.
+    /// Stop issuing work after this many seconds of render time (from the first unit leased;
+    /// time paused or with the coordinator down does not count) and finish with what is merged.
     pub time_limit_s: Option<f64>,
     /// naive | bsdf | light | mis (default mis).
     pub estimator: Option<String>,
@@ -119,6 +120,8 @@ pub struct Job {
     /// Estimated relative MSE of the current image (mean over pixels and channels of
     /// Var(mean)/(mean + 0.01)²); null before two samples per pixel are merged.
     pub noise: Option<f64>,
+    /// Render time so far: from the first unit leased, without time paused or with the
+    /// coordinator down.
     pub elapsed_s: f64,
     pub eta_s: Option<f64>,
     pub samples_per_s: f64,
