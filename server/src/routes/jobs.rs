@@ -80,7 +80,6 @@ pub async fn cancel(State(st): State<AppState>, Path(id): Path<String>) -> Resul
     get(State(st), Path(id)).await
 }
 
-
 /// Pause a job: it is leased no new units (other jobs get the workers); units already leased
 /// finish and are merged, and its render time and time limit stop until it is resumed.
 #[utoipa::path(post, path = "/v1/jobs/{id}/pause", tag = "jobs", params(("id" = String, Path)),
