@@ -148,6 +148,46 @@ fn cancel_frees_workers_within_a_second() {
 }
 
 #[test]
+fn a_paused_job_yields_its_workers_and_ends_with_the_undisturbed_bits() {
+    let rt = rt();
+    let farm = Farm::start("pause", 2);
+    let req = JobRequest { width: 128, height: 96, ..request(Some(256)) };
+    rt.block_on(async {
+        let c = farm.client();
+        let http = reqwest::Client::new();
+        let post = |id: &str, action: &str| http.post(format!("{}/v1/jobs/{id}/{action}", farm.url)).send();
+        let held = c.submit(&req).await.unwrap();
+        let start = Instant::now();
+        while c.job(&held.id).await.unwrap().progress.samples_done == 0.0 {
+            assert!(start.elapsed() < Duration::from_secs(20), "the job never started");
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        assert!(post(&held.id, "pause").await.unwrap().status().is_success());
+        // Units leased before the pause merge; then no worker holds any of its units.
+        let paused_at = Instant::now();
+        let before = loop {
+            let j = c.job(&held.id).await.unwrap();
+            if j.workers == 0 {
+                break j;
+            }
+            assert!(paused_at.elapsed() < Duration::from_secs(20), "the units leased before the pause never ended");
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        };
+        let other = c.submit(&request(Some(32))).await.unwrap();
+        assert_eq!(c.wait(&other.id, |_| {}).await.unwrap().state, JobState::Done, "the workers went to the other job");
+        let after = c.job(&held.id).await.unwrap();
+        assert_eq!((after.state, after.progress.samples_done), (JobState::Paused, before.progress.samples_done), "nothing rendered while paused");
+        assert!(after.progress.samples_done < 256.0, "paused before the end");
+        assert!(post(&held.id, "resume").await.unwrap().status().is_success());
+        let done = c.wait(&held.id, |_| {}).await.unwrap();
+        assert_eq!(done.state, JobState::Done);
+        let paused = c.bytes(&format!("/v1/jobs/{}/image.exr", held.id)).await.unwrap();
+        let undisturbed = run_job(&farm, &req).await.1;
+        assert!(pixels(&paused) == pixels(&undisturbed), "paused and resumed vs the same job undisturbed");
+    });
+}
+
+#[test]
 fn with_tokens_workers_and_clients_get_in_with_theirs_only() {
     let rt = rt();
     let farm = Farm::start_with("tokens", 1, Some(("c-token", "w-token")), &[]);
