@@ -1,4 +1,4 @@
-//! A small HTTP client for the coordinator's client API (used by `submit` and `render`).
+//! A small HTTP client for the coordinator's client API (used by `submit`, `job` and `render`).
 use anyhow::{Context, bail};
 use std::path::Path;
 use std::time::Duration;
@@ -44,6 +44,19 @@ impl Coordinator {
 
     pub async fn job(&self, id: &str) -> anyhow::Result<Job> {
         let resp = self.req(reqwest::Method::GET, &format!("/v1/jobs/{id}")).send().await.context("reading the job")?;
+        json_or_problem(resp).await
+    }
+
+    /// Pauses (`pause`) or resumes a job; the job after it.
+    pub async fn set_paused(&self, id: &str, pause: bool) -> anyhow::Result<Job> {
+        let action = if pause { "pause" } else { "resume" };
+        let resp = self.req(reqwest::Method::POST, &format!("/v1/jobs/{id}/{action}")).send().await.with_context(|| format!("asking to {action} the job"))?;
+        json_or_problem(resp).await
+    }
+
+    /// Cancels a job; the job after it.
+    pub async fn cancel(&self, id: &str) -> anyhow::Result<Job> {
+        let resp = self.req(reqwest::Method::DELETE, &format!("/v1/jobs/{id}")).send().await.context("canceling the job")?;
         json_or_problem(resp).await
     }
 

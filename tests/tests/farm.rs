@@ -188,6 +188,25 @@ fn a_paused_job_yields_its_workers_and_ends_with_the_undisturbed_bits() {
 }
 
 #[test]
+fn tessera_job_reads_pauses_resumes_and_cancels_a_job() {
+    let rt = rt();
+    let farm = Farm::start("job-cli", 0);
+    let id = rt.block_on(farm.client().submit(&request(Some(8)))).unwrap().id;
+    let job = |action: &str, id: &str| {
+        let out = Command::new(tessera_bin()).args(["job", action, id, "--server", &farm.url]).output().unwrap();
+        (out.status.success(), String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    for (action, shown) in [("status", "queued: "), ("pause", "paused: paused, "), ("resume", "queued: "), ("pause", "paused: "), ("cancel", "canceled: ")] {
+        let (ok, out, err) = job(action, &id);
+        assert!(ok && out.starts_with(&format!("{id} {shown}")), "{action}: {out} {err}");
+    }
+    let (ok, _, err) = job("resume", &id);
+    assert!(!ok && err.contains("has ended (canceled) and cannot be resumed"), "{err}");
+    let (ok, _, err) = job("status", "no-such-job");
+    assert!(!ok && err.contains("no job"), "{err}");
+}
+
+#[test]
 fn with_tokens_workers_and_clients_get_in_with_theirs_only() {
     let rt = rt();
     let farm = Farm::start_with("tokens", 1, Some(("c-token", "w-token")), &[]);

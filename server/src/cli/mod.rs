@@ -2,6 +2,7 @@
 mod args;
 mod bench;
 mod healthcheck;
+mod job;
 mod render;
 mod serve;
 mod submit;
@@ -12,7 +13,7 @@ use std::process::ExitCode;
 
 #[derive(Parser)]
 #[command(name = "tessera", version, about = "Tessera: a distributed render farm for physically based images",
-    long_about = "Tessera path-traces glTF 2.0 scenes. `render` renders on this machine (a coordinator and a worker in one process); `serve` runs a coordinator; `work` runs a worker that pulls units from a coordinator; `submit` sends a job to a coordinator; `healthcheck` probes a coordinator (for containers); `bench accuracy` measures what accuracy costs in time.\n\nLogs go to stderr; set RUST_LOG (e.g. RUST_LOG=debug) to change their level.")]
+    long_about = "Tessera path-traces glTF 2.0 scenes. `render` renders on this machine (a coordinator and a worker in one process); `serve` runs a coordinator; `work` runs a worker that pulls units from a coordinator; `submit` sends a job to a coordinator; `job` reads, pauses, resumes or cancels one; `healthcheck` probes a coordinator (for containers); `bench accuracy` measures what accuracy costs in time.\n\nLogs go to stderr; set RUST_LOG (e.g. RUST_LOG=debug) to change their level.")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -29,6 +30,8 @@ enum Command {
     Work(work::WorkArgs),
     /// Submit a job to a coordinator, optionally wait for it and download the image.
     Submit(submit::SubmitArgs),
+    /// Read, pause, resume or cancel a job on a coordinator; prints its state after.
+    Job(job::JobCmdArgs),
     /// Check that a coordinator answers on /healthz (exit code 0) or not (1); for container probes.
     Healthcheck(healthcheck::HealthcheckArgs),
     /// Benchmark studies that write reports (`bench accuracy`: relMSE vs time, issue #10).
@@ -37,7 +40,7 @@ enum Command {
 
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
-    let default_level = if matches!(cli.command, Command::Render(_) | Command::Submit(_) | Command::Healthcheck(_) | Command::Bench(_)) { "warn" } else { "info" };
+    let default_level = if matches!(cli.command, Command::Render(_) | Command::Submit(_) | Command::Job(_) | Command::Healthcheck(_) | Command::Bench(_)) { "warn" } else { "info" };
     tracing_subscriber::fmt()
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| default_level.into()))
         .with_writer(std::io::stderr)
@@ -47,6 +50,7 @@ pub fn main() -> ExitCode {
         Command::Serve(a) => serve::run(a),
         Command::Work(a) => work::run(a),
         Command::Submit(a) => submit::run(a),
+        Command::Job(a) => job::run(a),
         Command::Healthcheck(a) => healthcheck::run(a),
         Command::Bench(a) => bench::run(a),
     };

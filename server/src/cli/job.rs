@@ -1,0 +1,48 @@
+//! `tessera job`: read, pause, resume or cancel a job on a coordinator.
+use clap::{Args, ValueEnum};
+use tessera_proto::Job;
+use tessera_server::client::{Coordinator, progress_line};
+
+#[derive(Args)]
+pub struct JobCmdArgs {
+    /// What to do: `status` reads the job; `pause` stops it being leased new units (units in
+    /// flight finish and merge); `resume` lets it be leased again; `cancel` ends it.
+    pub action: JobAction,
+    /// The job's id (as `tessera submit` prints it).
+    pub id: String,
+    /// The coordinator's URL.
+    #[arg(long, env = "TESSERA_SERVER", default_value = "http://127.0.0.1:7878")]
+    pub server: String,
+    /// Client bearer token.
+    #[arg(long, env = "TESSERA_CLIENT_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum JobAction {
+    Status,
+    Pause,
+    Resume,
+    Cancel,
+}
+
+/// Does the action and prints the job's state after it: `<id> <state>: <progress>`.
+pub fn run(a: JobCmdArgs) -> anyhow::Result<()> {
+    let rt = tokio::runtime::Runtime::new()?;
+    let job = rt.block_on(async {
+        let c = Coordinator::new(&a.server, a.token.clone());
+        match a.action {
+            JobAction::Status => c.job(&a.id).await,
+            JobAction::Pause => c.set_paused(&a.id, true).await,
+            JobAction::Resume => c.set_paused(&a.id, false).await,
+            JobAction::Cancel => c.cancel(&a.id).await,
+        }
+    })?;
+    println!("{}", status_line(&job));
+    Ok(())
+}
+
+fn status_line(job: &Job) -> String {
+    let state = serde_json::to_value(job.state).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default();
+    format!("{} {state}: {}", job.id, progress_line(job))
+}
