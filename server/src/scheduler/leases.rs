@@ -35,7 +35,9 @@ impl Scheduler {
             .values()
             .filter(|j| j.state != JobState::Paused && !j.is_blocked(worker, self.max_failures))
             .filter_map(|j| j.next_unit(self.affinity(j, last_frame).as_ref()).map(|u| (j, u)))
-            .min_by_key(|(j, _)| (-j.cfg.priority, in_flight.get(&j.seq).copied().unwrap_or(0), j.seq))
+            // Reverse, not negation: −i32::MIN overflows (a panic in debug builds, the lowest
+            // priority first in release ones).
+            .min_by_key(|(j, _)| (std::cmp::Reverse(j.cfg.priority), in_flight.get(&j.seq).copied().unwrap_or(0), j.seq))
             .map(|(j, (tile, batch))| (j.seq, tile, batch));
         let Some((seq, tile, batch)) = pick else { return Ok(None) };
         let job = self.jobs.get_mut(&seq).expect("picked job exists");

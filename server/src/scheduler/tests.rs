@@ -149,6 +149,19 @@ fn higher_priority_first_then_fair_share() {
 }
 
 #[test]
+fn the_extreme_priorities_order_like_any_others() {
+    let mut s = Scheduler::new(TIMEOUT);
+    let w = s.register_worker("a", 2, 0);
+    s.submit(config("lowest", 4, i32::MIN));
+    s.submit(config("middle", 4, 0));
+    s.submit(config("highest", 4, i32::MAX));
+    let jobs: Vec<String> = (0..18).map(|_| s.lease(&w, 0).unwrap().unwrap().job_id).collect();
+    let first = |id: &str| jobs.iter().position(|j| j == id).unwrap();
+    let last = |id: &str| jobs.iter().rposition(|j| j == id).unwrap();
+    assert!(last("highest") < first("middle") && last("middle") < first("lowest"), "{jobs:?}");
+}
+
+#[test]
 fn a_noise_target_stops_tiles_early_and_deterministically() {
     let mut s = Scheduler::new(TIMEOUT);
     let w = s.register_worker("a", 2, 0);
