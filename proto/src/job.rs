@@ -94,8 +94,22 @@ pub enum JobState {
 }
 
 impl JobState {
+    pub const ALL: [JobState; 6] = [JobState::Queued, JobState::Running, JobState::Paused, JobState::Done, JobState::Failed, JobState::Canceled];
+
     pub fn is_final(self) -> bool {
         matches!(self, JobState::Done | JobState::Failed | JobState::Canceled)
+    }
+
+    /// The state as the API spells it (its serde name), for messages, metrics and the CLI.
+    pub fn name(self) -> &'static str {
+        match self {
+            JobState::Queued => "queued",
+            JobState::Running => "running",
+            JobState::Paused => "paused",
+            JobState::Done => "done",
+            JobState::Failed => "failed",
+            JobState::Canceled => "canceled",
+        }
     }
 }
 
@@ -190,4 +204,20 @@ pub struct JobList {
     pub jobs: Vec<Job>,
     /// Pass as `?before=` to get the next page; null on the last page.
     pub next: Option<String>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::JobState;
+
+    #[test]
+    fn every_state_is_named_as_serde_spells_it() {
+        for state in JobState::ALL {
+            assert_eq!(serde_json::to_value(state).unwrap(), state.name(), "{state:?}");
+            assert_eq!(serde_json::from_value::<JobState>(state.name().into()).unwrap(), state);
+        }
+        let mut names = JobState::ALL.map(JobState::name);
+        names.sort_unstable();
+        assert!(names.windows(2).all(|w| w[0] != w[1]), "ALL lists each state once: {names:?}");
+    }
 }

@@ -1,6 +1,5 @@
 //! `tessera job`: read, pause, resume or cancel a job on a coordinator.
 use clap::{Args, ValueEnum};
-use tessera_proto::Job;
 use tessera_server::client::{Coordinator, progress_line};
 
 #[derive(Args)]
@@ -38,11 +37,6 @@ pub fn run(a: JobCmdArgs) -> anyhow::Result<()> {
             JobAction::Cancel => c.cancel(&a.id).await,
         }
     })?;
-    println!("{}", status_line(&job));
+    println!("{} {}: {}", job.id, job.state.name(), progress_line(&job));
     Ok(())
-}
-
-fn status_line(job: &Job) -> String {
-    let state = serde_json::to_value(job.state).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default();
-    format!("{} {state}: {}", job.id, progress_line(job))
 }

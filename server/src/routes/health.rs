@@ -36,9 +36,9 @@ pub async fn metrics(State(st): State<AppState>) -> impl IntoResponse {
     let _ = writeln!(out, "# HELP tessera_merge_seconds_total Time spent merging results\n# TYPE tessera_merge_seconds_total counter\ntessera_merge_seconds_total {merge_s}");
     let sched = st.scheduler.lock().expect("lock");
     let _ = writeln!(out, "# HELP tessera_jobs Jobs by state\n# TYPE tessera_jobs gauge");
-    for state in [JobState::Queued, JobState::Running, JobState::Paused, JobState::Done, JobState::Failed, JobState::Canceled] {
+    for state in JobState::ALL {
         let n = sched.jobs_newest_first().filter(|j| j.state == state).count();
-        let _ = writeln!(out, "tessera_jobs{{state=\"{}\"}} {n}", format!("{state:?}").to_lowercase());
+        let _ = writeln!(out, "tessera_jobs{{state=\"{}\"}} {n}", state.name());
     }
     let _ = writeln!(out, "# HELP tessera_workers Registered workers\n# TYPE tessera_workers gauge\ntessera_workers {}", sched.workers().count());
     ([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], out)

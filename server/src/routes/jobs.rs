@@ -6,7 +6,7 @@ use axum::extract::{Path, Query, State};
 use axum::http::{StatusCode, header};
 use axum::response::IntoResponse;
 use serde::Deserialize;
-use tessera_proto::{Job, JobList, JobRequest, JobState, Problem};
+use tessera_proto::{Job, JobList, JobRequest, Problem};
 
 /// Submit a job. At least one stop condition (spp, noise_target, time_limit_s).
 #[utoipa::path(post, path = "/v1/jobs", tag = "jobs", request_body = JobRequest,
@@ -72,12 +72,7 @@ pub fn status_of(st: &AppState, id: &str) -> Result<Job, AppError> {
 #[utoipa::path(delete, path = "/v1/jobs/{id}", tag = "jobs", params(("id" = String, Path)), responses((status = 200, body = Job), (status = 404, body = Problem)))]
 pub async fn cancel(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<Job>, AppError> {
     st.scheduler.lock().expect("lock").cancel(&id, st.now()).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
-    let st2 = st.clone();
-    if let Ok(Err(e)) = tokio::task::spawn_blocking(move || st2.checkpoint()).await {
-        tracing::error!(job = %id, "the cancel is not yet durable (retried at the next checkpoint): {e:#}");
-    }
-    st.notify(&id);
-    get(State(st), Path(id)).await
+    changed(st, id, "cancel").await
 }
 
 /// Pause a job: it is leased no new units (other jobs get the workers); units already leased
@@ -101,22 +96,24 @@ async fn set_paused(st: AppState, id: String, pause: bool) -> Result<axum::Json<
         None => return Err(AppError::not_found(format!("no job {id:?}"))),
         Some(Err(state)) => {
             let verb = if pause { "paused" } else { "resumed" };
-            return Err(AppError::new(StatusCode::CONFLICT, format!("job {id} has ended ({}) and cannot be {verb}", state_name(state))));
+            return Err(AppError::new(StatusCode::CONFLICT, format!("job {id} has ended ({}) and cannot be {verb}", state.name())));
         }
         Some(Ok(_)) => {}
     }
-    let st2 = st.clone();
-    if let Ok(Err(e)) = tokio::task::spawn_blocking(move || st2.checkpoint()).await {
-        tracing::error!(job = %id, "the pause or resume is not yet durable (retried at the next checkpoint): {e:#}");
-    }
-    st.notify(&id);
+    let job = changed(st.clone(), id, if pause { "pause" } else { "resume" }).await;
     if !pause {
         st.work_available.notify_waiters();
     }
-    get(State(st), Path(id)).await
+    job
 }
 
-/// The state as the API spells it.
-fn state_name(state: JobState) -> String {
-    serde_json::to_value(state).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_else(|| format!("{state:?}"))
+/// After a change of a job's state by request: writes a checkpoint (a failure is logged and
+/// retried by the next one), tells the job's watchers, and answers with the job.
+async fn changed(st: AppState, id: String, what: &str) -> Result<axum::Json<Job>, AppError> {
+    let st2 = st.clone();
+    if let Ok(Err(e)) = tokio::task::spawn_blocking(move || st2.checkpoint()).await {
+        tracing::error!(job = %id, "the {what} is not yet durable (retried at the next checkpoint): {e:#}");
+    }
+    st.notify(&id);
+    get(State(st), Path(id)).await
 }
