@@ -33,6 +33,19 @@ async fn run_job(farm: &Farm, req: &JobRequest) -> (Job, Vec<u8>) {
     (job, exr)
 }
 
+/// The job once `done` holds, polled every 20 ms for at most 20 s (`what` names the wait).
+async fn job_when(c: &Coordinator, id: &str, what: &str, done: impl Fn(&Job) -> bool) -> Job {
+    let start = Instant::now();
+    loop {
+        let job = c.job(id).await.unwrap();
+        if done(&job) {
+            return job;
+        }
+        assert!(start.elapsed() < Duration::from_secs(20), "timed out waiting until {what}: {job:?}");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
 fn pixels(exr: &[u8]) -> (Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<f32>) {
     let (img, _) = decode_exr(exr).unwrap();
     (img.rgb, img.variance, img.samples)
@@ -127,11 +140,7 @@ fn cancel_frees_workers_within_a_second() {
     rt.block_on(async {
         let c = farm.client();
         let job = c.submit(&JobRequest { width: 256, height: 256, batch_spp: Some(256), ..request(Some(4096)) }).await.unwrap();
-        let start = Instant::now();
-        while c.job(&job.id).await.unwrap().workers < 2 {
-            assert!(start.elapsed() < Duration::from_secs(20), "workers never took the job");
-            tokio::time::sleep(Duration::from_millis(50)).await;
-        }
+        job_when(&c, &job.id, "both workers took the job", |j| j.workers >= 2).await;
         let http = reqwest::Client::new();
         let resp = http.delete(format!("{}/v1/jobs/{}", farm.url, job.id)).send().await.unwrap();
         assert!(resp.status().is_success());
@@ -155,22 +164,10 @@ fn a_paused_job_yields_its_workers_and_ends_with_the_undisturbed_bits() {
     rt.block_on(async {
         let c = farm.client();
         let held = c.submit(&req).await.unwrap();
-        let start = Instant::now();
-        while c.job(&held.id).await.unwrap().progress.samples_done == 0.0 {
-            assert!(start.elapsed() < Duration::from_secs(20), "the job never started");
-            tokio::time::sleep(Duration::from_millis(20)).await;
-        }
+        job_when(&c, &held.id, "the job started", |j| j.progress.samples_done > 0.0).await;
         assert_eq!(c.set_paused(&held.id, true).await.unwrap().state, JobState::Paused);
         // Units leased before the pause merge; then no worker holds any of its units.
-        let paused_at = Instant::now();
-        let before = loop {
-            let j = c.job(&held.id).await.unwrap();
-            if j.workers == 0 {
-                break j;
-            }
-            assert!(paused_at.elapsed() < Duration::from_secs(20), "the units leased before the pause never ended");
-            tokio::time::sleep(Duration::from_millis(20)).await;
-        };
+        let before = job_when(&c, &held.id, "the units leased before the pause ended", |j| j.workers == 0).await;
         let other = c.submit(&request(Some(32))).await.unwrap();
         assert_eq!(c.wait(&other.id, |_| {}).await.unwrap().state, JobState::Done, "the workers went to the other job");
         let after = c.job(&held.id).await.unwrap();
