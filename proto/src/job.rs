@@ -159,6 +159,11 @@ pub struct Job {
     /// Per animation frame, in frame order (one entry for a still).
     #[serde(default)]
     pub frames: Vec<FrameStatus>,
+    /// Renderer ids of the workers whose samples are merged, in order of their first merge.
+    /// One renderer per job while a worker of it is live; more only when a job outlived every
+    /// worker of its renderer (e.g. a farm upgraded mid-job) and others went on with it.
+    #[serde(default)]
+    pub renderers: Vec<String>,
 }
 
 /// One frame of a job: its progress and what preparing its scene cost the workers.

@@ -18,6 +18,12 @@ pub struct WorkerHello {
     /// A human-readable name (host name by default).
     pub name: String,
     pub threads: u32,
+    /// Which renderer the worker runs: `tessera <version> src:<hash> libm:<hash>` (its build's
+    /// source hash and a probe of its libm). A job's units go to workers of one renderer while
+    /// one is live, so its bits do not depend on who rendered what. Absent (empty) from workers
+    /// that predate it: they count as one renderer.
+    #[serde(default)]
+    pub renderer: String,
 }
 
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -67,4 +73,7 @@ pub struct WorkerInfo {
     pub units_done: u64,
     pub failures: u64,
     pub last_seen_ms_ago: u64,
+    /// Its renderer id (see [`WorkerHello::renderer`]).
+    #[serde(default)]
+    pub renderer: String,
 }

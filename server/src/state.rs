@@ -29,6 +29,8 @@ pub struct Config {
     pub max_failures: u32,
     /// Give workers units of the animation frame they rendered last (see `scheduler::frames`).
     pub frame_affinity: bool,
+    /// Let workers of different renderer ids share a job (see `scheduler::renderers`).
+    pub mix_renderers: bool,
 }
 
 impl Config {
@@ -43,6 +45,7 @@ impl Config {
             checkpoint_ms: Some(1000),
             max_failures: Scheduler::DEFAULT_MAX_FAILURES,
             frame_affinity: true,
+            mix_renderers: false,
         }
     }
 }
@@ -98,6 +101,7 @@ impl AppState {
         let epoch = store.as_ref().map(Store::next_boot).transpose()?.unwrap_or(0);
         let mut scheduler = Scheduler::with_epoch(config.lease_timeout_ms, config.max_failures, epoch);
         scheduler.set_frame_affinity(config.frame_affinity);
+        scheduler.set_mix_renderers(config.mix_renderers);
         let finished = match &store {
             Some(store) => crate::persist::restore(store, &mut scheduler, 0)?,
             None => Vec::new(),

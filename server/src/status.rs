@@ -43,6 +43,7 @@ pub fn job_status(job: &JobRun, now: u64, workers: u32, max_failures: u32) -> Jo
             .iter()
             .map(|(id, f)| WorkerFailures { worker_id: id.clone(), name: f.name.clone(), failures: f.count, blocked: f.count >= max_failures })
             .collect(),
+        renderers: job.renderers.clone(),
         contributions: job.contributions.iter().map(|(id, (name, n))| WorkerContribution { worker_id: id.clone(), name: name.clone(), samples: *n }).collect(),
         frames: (0..job.frame_count()).map(|i| frame_status(job, i)).collect(),
     }

@@ -133,6 +133,8 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
     b.click("#nav-workers").await;
     let units = b.until("the worker's row", 20, r##"const r = document.querySelector("#workers tbody tr"); return r && r.cells[4].textContent;"##).await;
     assert_eq!(units, "2", "one 64×64 tile × two 16-spp batches");
+    let renderer = b.js(r##"return document.querySelector("#workers tbody tr").cells[7].textContent;"##).await;
+    assert_eq!(renderer, tessera_worker::renderer_id(), "the worker's renderer id");
 }
 
 /// Snapshots the job page every 50 ms until it shows the job done at 100 % with its final

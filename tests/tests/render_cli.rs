@@ -28,6 +28,7 @@ fn render_writes_an_exr_with_every_layer_and_a_preview() {
     assert_eq!(get("tessera.spp"), Some(MetaValue::Double(8.0)));
     assert!(matches!(get("tessera.estimator"), Some(MetaValue::Text(ref s)) if s == "mis"));
     assert!(get("tessera.render_time_s").is_some());
+    assert_eq!(get("tessera.renderers"), Some(MetaValue::Text(renderer_id(None))), "the one renderer, as `--version` names it");
     let preview = image::open(&png).expect("preview decodes");
     assert_eq!((preview.width(), preview.height()), (48, 32));
 }
@@ -55,9 +56,35 @@ fn render_refuses_bad_arguments_with_a_clear_message() {
 /// rendered what. `GLIBC_TUNABLES` hides AVX2 and FMA from this process's glibc, which then takes
 /// its SSE2 variants (names for glibc ≥ 2.33 and before; a glibc that knows neither takes the same
 /// variants twice, and the test checks nothing new there).
+const WITHOUT_FMA: &str = "glibc.cpu.hwcaps=-AVX2_Usable,-FMA_Usable,-FMA4_Usable,-AVX2,-FMA,-FMA4";
+
+/// The renderer id `tessera --version` prints, with the given `GLIBC_TUNABLES` (None: unset).
+fn renderer_id(tunables: Option<&str>) -> String {
+    let mut command = Command::new(tessera_bin());
+    command.arg("--version");
+    match tunables {
+        Some(t) => command.env("GLIBC_TUNABLES", t),
+        None => command.env_remove("GLIBC_TUNABLES"),
+    };
+    let out = command.output().expect("run tessera --version");
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    let id = text.lines().find_map(|l| l.strip_prefix("renderer: ")).unwrap_or_else(|| panic!("no renderer line in {text:?}"));
+    id.to_string()
+}
+
+/// Workers register with a renderer id whose `libm:` part probes their libm, and the coordinator
+/// keeps a job on one id: CPUs whose libm variants give the same images must get the same id, or
+/// a mixed farm would be split for nothing.
+#[test]
+fn a_cpu_without_avx2_or_fma_has_the_same_renderer_id() {
+    let native = renderer_id(None);
+    assert!(native.contains(" libm:"), "{native}");
+    assert_eq!(native, renderer_id(Some(WITHOUT_FMA)));
+}
+
 #[test]
 fn a_cpu_without_avx2_or_fma_renders_the_same_bits() {
-    const WITHOUT_FMA: &str = "glibc.cpu.hwcaps=-AVX2_Usable,-FMA_Usable,-FMA4_Usable,-AVX2,-FMA,-FMA4";
     let dir = temp_dir("cpu-variants");
     // Sine and cosine (diffuse and GGX warps, the lens), exp (absorption), log and exp (the Phong
     // lobe), pow (sRGB textures, decoded at load).

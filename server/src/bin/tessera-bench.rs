@@ -182,7 +182,7 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool) -
 /// With `next_with_result`, each result asks for the next lease, as workers do.
 async fn fake_worker(i: usize, http: reqwest::Client, url: String, template: Vec<u8>, deadline: Instant, next_with_result: bool) -> anyhow::Result<u64> {
     let reg: tessera_proto::Registration =
-        http.post(format!("{url}/v1/workers")).json(&tessera_proto::WorkerHello { name: format!("fake{i}"), threads: 1 }).send().await?.json().await?;
+        http.post(format!("{url}/v1/workers")).json(&tessera_proto::WorkerHello { name: format!("fake{i}"), threads: 1, renderer: tessera_worker::renderer_id().to_owned() }).send().await?.json().await?;
     let mut done = 0;
     let mut next: Option<tessera_proto::Lease> = None;
     while Instant::now() < deadline {

@@ -12,7 +12,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "tessera", version, about = "Tessera: a distributed render farm for physically based images",
+#[command(name = "tessera", version, long_version = long_version(), about = "Tessera: a distributed render farm for physically based images",
     long_about = "Tessera path-traces glTF 2.0 scenes. `render` renders on this machine (a coordinator and a worker in one process); `serve` runs a coordinator; `work` runs a worker that pulls units from a coordinator; `submit` sends a job to a coordinator; `job` reads, pauses, resumes or cancels one; `healthcheck` probes a coordinator (for containers); `bench accuracy` measures what accuracy costs in time.\n\nLogs go to stderr; set RUST_LOG (e.g. RUST_LOG=debug) to change their level.")]
 struct Cli {
     #[command(subcommand)]
@@ -36,6 +36,13 @@ enum Command {
     Healthcheck(healthcheck::HealthcheckArgs),
     /// Benchmark studies that write reports (`bench accuracy`: relMSE vs time, issue #10).
     Bench(bench::BenchArgs),
+}
+
+/// `--version`: the release, and the renderer id workers register with (workers of different
+/// ids never share a job while one of each is live).
+fn long_version() -> &'static str {
+    static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TEXT.get_or_init(|| format!("{}\nrenderer: {}", env!("CARGO_PKG_VERSION"), tessera_worker::renderer_id()))
 }
 
 pub fn main() -> ExitCode {

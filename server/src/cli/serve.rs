@@ -26,6 +26,11 @@ pub struct ServeArgs {
     /// BVH (off: units go out frame by frame in plain order, as a baseline).
     #[arg(long, env = "TESSERA_FRAME_AFFINITY", default_value_t = true, action = clap::ArgAction::Set)]
     pub frame_affinity: bool,
+    /// Let workers of any renderer id (`tessera --version`) share a job: every worker gets work,
+    /// but an image may then mix two builds' or libms' bits (its `renderers` lists them). Off:
+    /// a job stays on the renderer it started with while a worker of it is live.
+    #[arg(long, env = "TESSERA_MIX_RENDERERS")]
+    pub mix_renderers: bool,
     /// Largest accepted scene upload, in MiB.
     #[arg(long, default_value_t = 256)]
     pub max_scene_mib: usize,
@@ -51,6 +56,7 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
     config.checkpoint_ms = (a.checkpoint_interval > 0.0).then_some((a.checkpoint_interval * 1000.0) as u64);
     config.max_failures = a.max_failures;
     config.frame_affinity = a.frame_affinity;
+    config.mix_renderers = a.mix_renderers;
     config.lease_timeout_ms = (a.lease_timeout * 1000.0) as u64;
     config.max_scene_bytes = a.max_scene_mib << 20;
     config.max_triangles = a.max_triangles;

@@ -121,6 +121,8 @@ class JobView {
       ["Elapsed", fmt.duration(job.elapsed_s)],
       ["Samples/s", fmt.count(job.samples_per_s)],
       ["Workers now", String(job.workers)],
+      // One renderer id per job unless it outlived every worker of its first (see the API docs).
+      ["Renderer", (job.renderers || []).join(" + ") || "—"],
       ["Dropped samples", String(job.dropped_samples)],
       ["Largest sample weight", job.max_sample_weight.toPrecision(3)],
       ["Submitted", new Date(job.created_unix_ms).toLocaleString()],

@@ -43,6 +43,7 @@ function show(workers) {
       fmt.el("td", { class: "num", text: String(w.units_done) }),
       fmt.el("td", { class: `num${w.failures ? " warn" : ""}`, text: String(w.failures) }),
       fmt.el("td", { text: `${fmt.duration(w.last_seen_ms_ago / 1000)} ago` }),
+      fmt.el("td", { class: "mono", text: w.renderer || "—" }),
     ),
   );
   $("workers").tBodies[0].replaceChildren(...rows);

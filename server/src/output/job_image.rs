@@ -1,6 +1,6 @@
 //! One frame of a job as an image: its merged sums and the EXR header attributes that say how
-//! it was made (`tessera.*`: job, scene, spp, seed, estimator, sampler, effects, noise, and for
-//! animations the frame, its time, fps and animation).
+//! it was made (`tessera.*`: job, scene, spp, seed, estimator, sampler, effects, noise, the
+//! renderers whose samples it holds, and for animations the frame, its time, fps and animation).
 use super::MetaValue;
 use crate::image;
 use crate::scheduler::JobRun;
@@ -47,6 +47,8 @@ fn exr_meta(job: &JobRun, index: usize, now: u64) -> Vec<(String, MetaValue)> {
         ("tessera.max_sample_weight".into(), MetaValue::Double(job.max_weight())),
         ("tessera.render_time_s".into(), MetaValue::Double(job.elapsed_ms(now) as f64 / 1000.0)),
         ("tessera.noise".into(), MetaValue::Double(job.frame_noise(index).unwrap_or(0.0))),
+        // One renderer id, or several separated by "; " (see scheduler/renderers.rs).
+        ("tessera.renderers".into(), MetaValue::Text(job.renderers.join("; "))),
     ];
     if job.is_animation() {
         meta.push(("tessera.frame".into(), MetaValue::Text(job.frame_number(index).to_string())));

@@ -18,8 +18,11 @@ pub async fn register(State(st): State<AppState>, Json(hello): Json<WorkerHello>
     if hello.threads == 0 || hello.threads > 4096 {
         return Err(AppError::field("threads", format!("expected threads in 1..=4096 (got {})", hello.threads)));
     }
-    let id = st.scheduler.lock().expect("lock").register_worker(&hello.name, hello.threads, st.now());
-    tracing::info!(worker = %id, name = %hello.name, threads = hello.threads, "worker registered");
+    if hello.renderer.len() > 256 {
+        return Err(AppError::field("renderer", "renderer must be at most 256 bytes"));
+    }
+    let id = st.scheduler.lock().expect("lock").register(&hello.name, hello.threads, &hello.renderer, st.now());
+    tracing::info!(worker = %id, name = %hello.name, threads = hello.threads, renderer = %hello.renderer, "worker registered");
     let heartbeat_ms = (st.config.lease_timeout_ms / 3).max(100);
     Ok((StatusCode::CREATED, axum::Json(Registration { worker_id: id, heartbeat_ms })))
 }
@@ -53,6 +56,7 @@ pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<WorkerInfo>> {
                 units_done: w.units_done,
                 failures: w.failures,
                 last_seen_ms_ago: now.saturating_sub(w.last_seen),
+                renderer: w.renderer.clone(),
             })
             .collect(),
     )

@@ -268,3 +268,24 @@ async fn a_worker_leaving_ends_its_long_poll_and_hands_back_its_units() {
     let ids: Vec<Value> = api.get("/v1/workers").await.json().as_array().unwrap().iter().map(|w| w["id"].clone()).collect();
     assert_eq!(ids, [json!(c)], "only c is listed");
 }
+
+#[tokio::test]
+async fn a_job_stays_with_the_renderer_that_started_it_and_its_status_names_it() {
+    let api = Api::new("w-renderers");
+    let as_renderer = |name: &str, renderer: &str| json!({"name": name, "threads": 1, "renderer": renderer});
+    let old = api.post_json("/v1/workers", &as_renderer("old", "tessera 0.1.0 src:aaaa libm:0000")).await.json()["worker_id"].as_str().unwrap().to_string();
+    let new = api.post_json("/v1/workers", &as_renderer("new", "tessera 0.1.0 src:bbbb libm:0000")).await.json()["worker_id"].as_str().unwrap().to_string();
+    let workers = api.get("/v1/workers").await.json();
+    let renderer_of = |id: &str| workers.as_array().unwrap().iter().find(|w| w["id"] == id).unwrap()["renderer"].clone();
+    assert_eq!(renderer_of(&old), "tessera 0.1.0 src:aaaa libm:0000");
+    assert_eq!(renderer_of(&new), "tessera 0.1.0 src:bbbb libm:0000");
+
+    let job = api.submit(&tiled_job()).await;
+    let job_id = job["id"].as_str().unwrap();
+    let l = lease(&api, &old).await;
+    api.post_json("/v1/leases", &json!({"worker_id": new})).await.expect(StatusCode::NO_CONTENT);
+    put_result(&api, &l.lease_id, sums_for(&l, 1.0).encode()).await.expect(StatusCode::NO_CONTENT);
+    assert_eq!(api.job(job_id).await["renderers"], json!(["tessera 0.1.0 src:aaaa libm:0000"]));
+    api.post_json("/v1/leases", &json!({"worker_id": new})).await.expect(StatusCode::NO_CONTENT);
+    assert_eq!(lease(&api, &old).await.job_id, job_id, "the job goes on with its own renderer");
+}

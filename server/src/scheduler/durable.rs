@@ -24,6 +24,9 @@ pub struct JobRecord {
     /// Pixel-samples merged per worker id (with its name), as of the checkpointed merges.
     #[serde(default)]
     pub contributions: std::collections::BTreeMap<String, (String, u64)>,
+    /// The job's renderers (`JobRun::renderers`), so a restarted coordinator keeps it on them.
+    #[serde(default)]
+    pub renderers: Vec<String>,
 }
 
 /// How many batches a tile's checkpoint file holds (0: no file), and its noise stop.
@@ -68,6 +71,7 @@ impl JobRun {
             message: self.message.clone(),
             tiles: self.tiles.iter().map(|t| TileMark { upto: t.merged_upto, stop_at: t.stop_at }).collect(),
             contributions: self.contributions.clone(),
+            renderers: self.renderers.clone(),
         }
     }
 
@@ -129,6 +133,7 @@ impl Scheduler {
         job.message = rec.message;
         job.elapsed_before_ms = rec.elapsed_ms;
         job.contributions = rec.contributions;
+        job.renderers = rec.renderers;
         match job.state {
             JobState::Queued | JobState::Paused => {}
             JobState::Running => job.started_ms = Some(now),

@@ -52,12 +52,13 @@ pub struct Failures {
     pub count: u32,
 }
 
-/// Who rendered a unit: the worker's id and name, kept with the job so its status can say who
-/// contributed even after the worker is gone.
+/// Who rendered a unit: the worker's id, name and renderer id, kept with the job so its status
+/// can say who contributed (and with which renderer) even after the worker is gone.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct Renderer {
+pub struct Contributor {
     pub id: String,
     pub name: String,
+    pub renderer: String,
 }
 
 pub struct JobRun {
@@ -83,8 +84,11 @@ pub struct JobRun {
     pub(super) persisted_revision: u64,
     /// Pixel-samples merged per worker id (with its name).
     pub contributions: BTreeMap<String, (String, u64)>,
+    /// Renderer ids of the workers whose samples are merged, in order of their first merge:
+    /// one, unless the job outlived every live worker of its renderer (`renderers.rs`).
+    pub renderers: Vec<String>,
     /// Who rendered each buffered (tile, batch), credited when it merges in order.
-    pending_by: HashMap<(usize, u32), Renderer>,
+    pending_by: HashMap<(usize, u32), Contributor>,
 }
 
 impl JobRun {
@@ -115,6 +119,7 @@ impl JobRun {
             revision: 1,
             persisted_revision: 0,
             contributions: BTreeMap::new(),
+            renderers: Vec::new(),
             pending_by: HashMap::new(),
         }
     }
@@ -156,7 +161,7 @@ impl JobRun {
     }
 
     /// Buffers a batch's sums and merges every batch now contiguous. Returns batches merged.
-    pub fn accept(&mut self, tile: usize, batch: u32, sums: PartialSums, by: Renderer, now: u64) -> u32 {
+    pub fn accept(&mut self, tile: usize, batch: u32, sums: PartialSums, by: Contributor, now: u64) -> u32 {
         self.pending_by.insert((tile, batch), by);
         let first = self.tiles[tile].merged_upto;
         let stop = self.cfg.noise_target.map(|target| NoiseStop { target, min_spp: MIN_SPP_FOR_NOISE_STOP.min(self.cfg.spp) });
@@ -181,6 +186,9 @@ impl JobRun {
 
     fn credit(&mut self, tile: usize, batch: u32, pixel_samples: u64) {
         let by = self.pending_by.remove(&(tile, batch)).unwrap_or_default();
+        if !self.renderers.contains(&by.renderer) {
+            self.renderers.push(by.renderer);
+        }
         self.contributions.entry(by.id).or_insert((by.name, 0)).1 += pixel_samples;
     }
 

@@ -1,7 +1,8 @@
 //! A lease's life: issued to a worker, kept alive by heartbeats, completed with a result,
 //! released, expired by `tick`, or revoked when its job no longer wants the unit.
 use super::frames::{self, PrepareKind};
-use super::job::{JobRun, Renderer};
+use super::job::{Contributor, JobRun};
+use super::renderers::Admission;
 use super::{Accepted, ResultError, Scheduler};
 use std::collections::HashMap;
 use tessera_proto::{JobState, Lease, PartialSums};
@@ -26,6 +27,8 @@ impl Scheduler {
         w.last_seen = now;
         w.lapsed = false;
         let last_frame = w.last_frame;
+        let mine = w.renderer.clone();
+        let gate = self.renderer_gate(&mine, now);
         let mut in_flight: HashMap<u64, usize> = HashMap::new();
         for l in self.leases.values() {
             *in_flight.entry(l.job_seq).or_default() += 1;
@@ -34,13 +37,19 @@ impl Scheduler {
             .jobs
             .values()
             .filter(|j| j.state != JobState::Paused && !j.is_blocked(worker, self.max_failures))
-            .filter_map(|j| j.next_unit(self.affinity(j, last_frame).as_ref()).map(|u| (j, u)))
+            .map(|j| (j, gate.admits(j)))
+            .filter(|(_, admission)| *admission != Admission::Refused)
+            .filter_map(|(j, admission)| j.next_unit(self.affinity(j, last_frame).as_ref()).map(|u| (j, u, admission)))
             // Reverse, not negation: −i32::MIN overflows (a panic in debug builds, the lowest
             // priority first in release ones).
-            .min_by_key(|(j, _)| (std::cmp::Reverse(j.cfg.priority), in_flight.get(&j.seq).copied().unwrap_or(0), j.seq))
-            .map(|(j, (tile, batch))| (j.seq, tile, batch));
-        let Some((seq, tile, batch)) = pick else { return Ok(None) };
+            .min_by_key(|(j, _, _)| (std::cmp::Reverse(j.cfg.priority), in_flight.get(&j.seq).copied().unwrap_or(0), j.seq))
+            .map(|(j, (tile, batch), admission)| (j.seq, tile, batch, admission));
+        drop(gate);
+        let Some((seq, tile, batch, admission)) = pick else { return Ok(None) };
         let job = self.jobs.get_mut(&seq).expect("picked job exists");
+        if admission == Admission::Mixes && !self.mix_renderers {
+            tracing::warn!(job = %job.cfg.id, worker, renderer = %mine, had = ?job.renderers, "no live worker of this job's renderer is left: it goes on with another, and its image mixes renderers");
+        }
         job.mark_issued(tile, batch, now);
         let frame_index = job.frame_index_of(tile);
         self.next_lease += 1;
@@ -146,7 +155,8 @@ impl Scheduler {
         if !job.wants(l.tile, l.batch) {
             return Ok(Accepted { job_id, worker: l.worker, merged: false, job_finished: false });
         }
-        let by = Renderer { name: self.workers.get(&l.worker).map(|w| w.name.clone()).unwrap_or_default(), id: l.worker.clone() };
+        let (name, renderer) = self.workers.get(&l.worker).map(|w| (w.name.clone(), w.renderer.clone())).unwrap_or_default();
+        let by = Contributor { id: l.worker.clone(), name, renderer };
         job.accept(l.tile, l.batch, sums, by, now);
         let job_finished = job.state.is_final();
         self.revoke_unwanted(l.job_seq);

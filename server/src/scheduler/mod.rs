@@ -15,12 +15,15 @@
 //! - Ids of leases and workers carry the coordinator's `epoch` (its boot count), so an id from
 //!   before a restart never names something after it.
 //! - A paused job is offered no units; the units it had leased finish and are merged.
+//! - A job's units go to workers of one renderer (`renderers.rs`): of the renderer its merged
+//!   and leased units have, while a worker of it is live.
 //! - Jobs of higher priority go first; equal priorities share workers (fewest leases in flight
 //!   first), then first come, first served.
 mod durable;
 mod frames;
 mod job;
 mod leases;
+mod renderers;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
@@ -31,11 +34,13 @@ mod tests_frames;
 mod tests_numerics;
 #[cfg(test)]
 mod tests_pause;
+#[cfg(test)]
+mod tests_renderers;
 mod tile;
 
 pub use durable::{JobCheckpoint, JobRecord, RestoredTile, TileCheckpoint, TileMark};
 pub use frames::{FramePrepare, PrepareKind};
-pub use job::{Failures, JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP, Renderer};
+pub use job::{Failures, JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP, Contributor};
 pub use tile::TileRun;
 use leases::LeaseRec;
 use std::collections::{BTreeMap, HashMap};
@@ -63,6 +68,8 @@ pub struct Accepted {
 pub struct WorkerRec {
     pub name: String,
     pub threads: u32,
+    /// Its renderer id (`tessera_worker::renderer_id`; empty from workers older than it).
+    pub renderer: String,
     pub last_seen: u64,
     pub units_done: u64,
     pub failures: u64,
@@ -87,6 +94,7 @@ pub struct Scheduler {
     max_failures: u32,
     epoch: u64,
     frame_affinity: bool,
+    mix_renderers: bool,
     /// Jobs that ended inside `tick` (time limits), for the caller to finalize.
     finished: Vec<String>,
 }
@@ -112,6 +120,7 @@ impl Scheduler {
             max_failures: max_failures.max(1),
             epoch,
             frame_affinity: true,
+            mix_renderers: false,
             finished: Vec::new(),
         }
     }
@@ -120,10 +129,16 @@ impl Scheduler {
         self.lease_timeout_ms
     }
 
+    /// A worker of this process's renderer (tests).
+    #[cfg(test)]
     pub fn register_worker(&mut self, name: &str, threads: u32, now: u64) -> String {
+        self.register(name, threads, tessera_worker::renderer_id(), now)
+    }
+
+    pub fn register(&mut self, name: &str, threads: u32, renderer: &str, now: u64) -> String {
         self.next_worker += 1;
         let id = format!("w{}-{}", self.epoch, self.next_worker);
-        let rec = WorkerRec { name: name.to_string(), threads, last_seen: now, units_done: 0, failures: 0, current: None, lapsed: false, last_frame: None };
+        let rec = WorkerRec { name: name.to_string(), threads, renderer: renderer.to_string(), last_seen: now, units_done: 0, failures: 0, current: None, lapsed: false, last_frame: None };
         self.workers.insert(id.clone(), rec);
         id
     }
@@ -172,6 +187,11 @@ impl Scheduler {
     /// Turns frame affinity on or off (on by default).
     pub fn set_frame_affinity(&mut self, on: bool) {
         self.frame_affinity = on;
+    }
+
+    /// Lets workers of any renderer share a job (off by default; see `renderers.rs`).
+    pub fn set_mix_renderers(&mut self, on: bool) {
+        self.mix_renderers = on;
     }
 
     /// Cancels a job; its leases are revoked (their heartbeats answer "gone").

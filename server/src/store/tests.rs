@@ -35,6 +35,7 @@ fn record(upto: u32) -> JobRecord {
         message: None,
         tiles: vec![TileMark { upto, stop_at: None }],
         contributions: Default::default(),
+        renderers: vec!["tessera 0.1.0 src:aaaaaaaaaaaa libm:00000000".into()],
     }
 }
 
@@ -83,4 +84,12 @@ fn a_committed_checkpoint_supersedes_the_old_file() {
     assert_eq!(store.next_boot().unwrap(), 1);
     assert_eq!(store.next_boot().unwrap(), 2, "boots are counted");
     let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_record_stored_before_renderers_were_kept_loads_without_any() {
+    let mut stored = serde_json::to_value(record(1)).unwrap();
+    stored.as_object_mut().unwrap().remove("renderers");
+    let r: JobRecord = serde_json::from_value(stored).expect("older records load");
+    assert!(r.renderers.is_empty());
 }

@@ -316,10 +316,10 @@ impl Worker {
     /// Registers, retrying until it works; None on shutdown.
     async fn register(&self, stop: &Stop) -> anyhow::Result<Option<Registration>> {
         let threads = u32::try_from(self.pool.current_num_threads()).unwrap_or(u32::MAX);
-        let hello = WorkerHello { name: self.name.clone(), threads };
+        let hello = WorkerHello { name: self.name.clone(), threads, renderer: crate::renderer_id().to_owned() };
         match until_done("registration", stop, Duration::ZERO, || self.api.register(&hello)).await {
             Retried::Done(reg) => {
-                info!(worker_id = %reg.worker_id, heartbeat_ms = reg.heartbeat_ms, coordinator = self.api.base(), "registered");
+                info!(worker_id = %reg.worker_id, heartbeat_ms = reg.heartbeat_ms, coordinator = self.api.base(), renderer = %hello.renderer, "registered");
                 Ok(Some(reg))
             }
             Retried::Fatal(e) => Err(anyhow!("the coordinator refused to register this worker: {e}")),
