@@ -17,6 +17,11 @@ pub async fn healthz(State(st): State<AppState>) -> String {
     }
 }
 
+/// A Prometheus label value: backslash, double quote and line feed escaped (workers choose it).
+fn label_value(s: &str) -> String {
+    s.replace('\\', "\\\\").replace('"', "\\\"").replace('\n', "\\n")
+}
+
 /// Counters and gauges in Prometheus text format.
 #[utoipa::path(get, path = "/metrics", tag = "health", responses((status = 200, content_type = "text/plain")))]
 pub async fn metrics(State(st): State<AppState>) -> impl IntoResponse {
@@ -41,5 +46,14 @@ pub async fn metrics(State(st): State<AppState>) -> impl IntoResponse {
         let _ = writeln!(out, "tessera_jobs{{state=\"{}\"}} {n}", state.name());
     }
     let _ = writeln!(out, "# HELP tessera_workers Registered workers\n# TYPE tessera_workers gauge\ntessera_workers {}", sched.workers().count());
+    // Several renderer ids at once is a farm mid-upgrade (or a mixed one): its jobs are split.
+    let mut by_renderer = std::collections::BTreeMap::<&str, u32>::new();
+    for (_, w) in sched.workers() {
+        *by_renderer.entry(&w.renderer).or_default() += 1;
+    }
+    let _ = writeln!(out, "# HELP tessera_workers_by_renderer Registered workers by renderer id\n# TYPE tessera_workers_by_renderer gauge");
+    for (renderer, n) in by_renderer {
+        let _ = writeln!(out, "tessera_workers_by_renderer{{renderer=\"{}\"}} {n}", label_value(renderer));
+    }
     ([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], out)
 }

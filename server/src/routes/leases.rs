@@ -21,6 +21,10 @@ pub async fn register(State(st): State<AppState>, Json(hello): Json<WorkerHello>
     if hello.renderer.len() > 256 {
         return Err(AppError::field("renderer", "renderer must be at most 256 bytes"));
     }
+    // It goes into logs, metrics labels and EXR headers verbatim.
+    if hello.renderer.chars().any(char::is_control) {
+        return Err(AppError::field("renderer", "renderer must not contain control characters"));
+    }
     let id = st.scheduler.lock().expect("lock").register(&hello.name, hello.threads, &hello.renderer, st.now());
     tracing::info!(worker = %id, name = %hello.name, threads = hello.threads, renderer = %hello.renderer, "worker registered");
     let heartbeat_ms = (st.config.lease_timeout_ms / 3).max(100);

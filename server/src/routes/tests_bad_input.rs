@@ -127,6 +127,7 @@ fn worker_cases() -> Vec<Case> {
     vec![
         case("zero threads", To::Post("/v1/workers"), JSON, Body::Json(json!({"name": "x", "threads": 0})), S::BAD_REQUEST, "threads in 1..=4096"),
         case("renderer id over 256 bytes", To::Post("/v1/workers"), JSON, Body::Json(json!({"name": "x", "threads": 1, "renderer": "r".repeat(300)})), S::BAD_REQUEST, "renderer must be at most 256 bytes"),
+        case("renderer id with a line feed", To::Post("/v1/workers"), JSON, Body::Json(json!({"name": "x", "threads": 1, "renderer": "a\nb"})), S::BAD_REQUEST, "renderer must not contain control characters"),
         case("registration over 64 KiB", To::Post("/v1/workers"), JSON, Body::Json(big.clone()), S::PAYLOAD_TOO_LARGE, "length limit"),
         case("lease for an unknown worker", To::Post("/v1/leases"), JSON, Body::Json(json!({"worker_id": "w404"})), S::NOT_FOUND, "unknown worker \"w404\""),
         case("lease request over 64 KiB", To::Post("/v1/leases"), JSON, Body::Json(json!({"worker_id": "w".repeat(65 << 10)})), S::PAYLOAD_TOO_LARGE, "length limit"),

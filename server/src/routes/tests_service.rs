@@ -25,6 +25,19 @@ async fn metrics_are_prometheus_text() {
 }
 
 #[tokio::test]
+async fn metrics_count_workers_by_renderer_with_the_label_escaped() {
+    let api = Api::new("metrics-renderers");
+    for renderer in ["tessera 0.1.0 src:a libm:0", "tessera 0.1.0 src:a libm:0", "odd \"one\"\\"] {
+        api.post_json("/v1/workers", &json!({"name": "w", "threads": 1, "renderer": renderer})).await.expect(StatusCode::CREATED);
+    }
+    let r = api.get("/metrics").await;
+    let text = r.text();
+    assert!(text.contains("\ntessera_workers_by_renderer{renderer=\"tessera 0.1.0 src:a libm:0\"} 2\n"), "{text}");
+    assert!(text.contains("\ntessera_workers_by_renderer{renderer=\"odd \\\"one\\\"\\\\\"} 1\n"), "{text}");
+    assert_eq!(api.metric("tessera_workers").await, "3");
+}
+
+#[tokio::test]
 async fn openapi_documents_every_route_the_router_serves() {
     let api = Api::new("openapi");
     let r = api.get("/openapi.json").await;

@@ -7,11 +7,17 @@ const TIMEOUT: u64 = 1000;
 const OLD: &str = "tessera 0.1.0 src:aaaaaaaaaaaa libm:00000000";
 const NEW: &str = "tessera 0.1.0 src:bbbbbbbbbbbb libm:00000000";
 
-#[test]
-fn a_worker_of_another_renderer_gets_other_jobs_and_never_this_ones_units() {
+/// A scheduler with a worker of each renderer, "old" and "new".
+fn farm_of_two_renderers() -> (Scheduler, String, String) {
     let mut s = Scheduler::new(TIMEOUT);
     let old = s.register("old", 1, OLD, 0);
     let new = s.register("new", 1, NEW, 0);
+    (s, old, new)
+}
+
+#[test]
+fn a_worker_of_another_renderer_gets_other_jobs_and_never_this_ones_units() {
+    let (mut s, old, new) = farm_of_two_renderers();
     s.submit(config("first", 8, 5));
     s.submit(config("second", 8, 0));
     let g = s.lease(&old, 0).unwrap().unwrap();
@@ -42,9 +48,7 @@ fn workers_of_one_renderer_share_a_job() {
 
 #[test]
 fn once_its_renderer_has_no_live_worker_another_goes_on_and_the_job_names_both() {
-    let mut s = Scheduler::new(TIMEOUT);
-    let old = s.register("old", 1, OLD, 0);
-    let new = s.register("new", 1, NEW, 0);
+    let (mut s, old, new) = farm_of_two_renderers();
     s.submit(config("j", 8, 0));
     let g = s.lease(&old, 0).unwrap().unwrap();
     s.complete(&g.lease_id, sums(&g, 1.0), 10).unwrap();
@@ -57,9 +61,7 @@ fn once_its_renderer_has_no_live_worker_another_goes_on_and_the_job_names_both()
 
 #[test]
 fn a_worker_that_left_leaves_the_job_to_the_others_at_once() {
-    let mut s = Scheduler::new(TIMEOUT);
-    let old = s.register("old", 1, OLD, 0);
-    let new = s.register("new", 1, NEW, 0);
+    let (mut s, old, new) = farm_of_two_renderers();
     s.submit(config("j", 8, 0));
     s.lease(&old, 0).unwrap().unwrap();
     assert_eq!(s.lease(&new, 1).unwrap(), None);
@@ -89,10 +91,8 @@ fn a_restarted_coordinator_keeps_a_job_on_its_renderer() {
 
 #[test]
 fn with_mixing_allowed_every_worker_gets_units_and_the_job_names_both() {
-    let mut s = Scheduler::new(TIMEOUT);
+    let (mut s, old, new) = farm_of_two_renderers();
     s.set_mix_renderers(true);
-    let old = s.register("old", 1, OLD, 0);
-    let new = s.register("new", 1, NEW, 0);
     s.submit(config("j", 8, 0));
     let a = s.lease(&old, 0).unwrap().unwrap();
     let b = s.lease(&new, 0).unwrap().expect("not refused");
