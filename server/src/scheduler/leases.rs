@@ -37,9 +37,8 @@ impl Scheduler {
             .jobs
             .values()
             .filter(|j| j.state != JobState::Paused && !j.is_blocked(worker, self.max_failures))
-            .map(|j| (j, gate.admits(j)))
-            .filter(|(_, admission)| *admission != Admission::Refused)
-            .filter_map(|(j, admission)| j.next_unit(self.affinity(j, last_frame).as_ref()).map(|u| (j, u, admission)))
+            .filter_map(|j| j.next_unit(self.affinity(j, last_frame).as_ref()).map(|u| (j, u, gate.admits(j))))
+            .filter(|(_, _, admission)| *admission != Admission::Refused)
             // Reverse, not negation: −i32::MIN overflows (a panic in debug builds, the lowest
             // priority first in release ones).
             .min_by_key(|(j, _, _)| (std::cmp::Reverse(j.cfg.priority), in_flight.get(&j.seq).copied().unwrap_or(0), j.seq))
