@@ -8,8 +8,9 @@
 //! of another renderer is offered other jobs.
 //!
 //! A farm upgraded while a job runs would leave that job waiting forever for a renderer no
-//! worker has any more. So the rule holds while the job's renderer has a *live* worker (seen
-//! within [`LIVE_WITHIN_MS`] or a lease timeout, whichever is longer); once none is left, any
+//! worker has any more. So the rule holds while the job's renderer has a *live* worker that may
+//! take its units (seen within [`LIVE_WITHIN_MS`] or a lease timeout, whichever is longer, and
+//! not kept off the job by the blocklist); once none is left, any
 //! worker may go on with the job, the job's `renderers` lists both, and the coordinator logs a
 //! warning. Mixing is then visible in the job's status and the EXR's `tessera.renderers`.
 //!
@@ -27,8 +28,9 @@ pub(super) struct RendererGate<'a> {
     mine: &'a str,
     /// Renderers of the units each job has leased now, by job seq.
     leased: HashMap<u64, BTreeSet<&'a str>>,
-    /// Renderers with a live worker.
-    live: BTreeSet<&'a str>,
+    /// Live workers: (id, renderer).
+    live: Vec<(&'a str, &'a str)>,
+    max_failures: u32,
     /// `--mix-renderers`: refuse nobody.
     mix: bool,
 }
@@ -52,8 +54,8 @@ impl Scheduler {
                 leased.entry(l.job_seq).or_default().insert(&w.renderer);
             }
         }
-        let live = self.workers.values().filter(|w| now.saturating_sub(w.last_seen) <= window).map(|w| w.renderer.as_str()).collect();
-        RendererGate { mine, leased, live, mix: self.mix_renderers }
+        let live = self.workers.iter().filter(|(_, w)| now.saturating_sub(w.last_seen) <= window).map(|(id, w)| (id.as_str(), w.renderer.as_str())).collect();
+        RendererGate { mine, leased, live, max_failures: self.max_failures, mix: self.mix_renderers }
     }
 }
 
@@ -68,7 +70,8 @@ impl RendererGate<'_> {
                 return Admission::Same;
             }
             any = true;
-            live |= self.live.contains(r);
+            // A worker the blocklist keeps off this job would never take its units.
+            live |= self.live.iter().any(|&(id, renderer)| renderer == r && !job.is_blocked(id, self.max_failures));
         }
         match (any, live) {
             (false, _) => Admission::Same,

@@ -100,3 +100,23 @@ fn with_mixing_allowed_every_worker_gets_units_and_the_job_names_both() {
     s.complete(&b.lease_id, sums(&b, 1.0), 1).unwrap();
     assert_eq!(s.job("j").unwrap().renderers, [OLD, NEW]);
 }
+
+#[test]
+fn a_renderer_whose_only_worker_is_blocked_from_the_job_does_not_hold_it() {
+    let (mut s, old, new) = farm_of_two_renderers();
+    s.submit(config("j", 8, 0));
+    let g = s.lease(&old, 0).unwrap().unwrap();
+    s.complete(&g.lease_id, sums(&g, 1.0), 1).unwrap();
+    assert_eq!(s.lease(&new, 1).unwrap(), None, "the job has the old renderer");
+    let mut now = 2;
+    for _ in 0..Scheduler::DEFAULT_MAX_FAILURES {
+        let g = s.lease(&old, now).unwrap().expect("a unit of j");
+        let mut wrong = sums(&g, 1.0);
+        wrong.samples = [0, 1];
+        assert!(matches!(s.complete(&g.lease_id, wrong, now + 1), Err(ResultError::Malformed(_))));
+        now += 2;
+    }
+    assert!(s.job("j").unwrap().is_blocked(&old, Scheduler::DEFAULT_MAX_FAILURES));
+    let g = s.lease(&new, now).unwrap().expect("the old worker is live but kept off the job");
+    assert_eq!(g.job_id, "j");
+}
