@@ -8,11 +8,11 @@ mod serve;
 mod submit;
 mod work;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "tessera", version, long_version = long_version(), about = "Tessera: a distributed render farm for physically based images",
+#[command(name = "tessera", version, about = "Tessera: a distributed render farm for physically based images",
     long_about = "Tessera path-traces glTF 2.0 scenes. `render` renders on this machine (a coordinator and a worker in one process); `serve` runs a coordinator; `work` runs a worker that pulls units from a coordinator; `submit` sends a job to a coordinator; `job` reads, pauses, resumes or cancels one; `healthcheck` probes a coordinator (for containers); `bench accuracy` measures what accuracy costs in time.\n\nLogs go to stderr; set RUST_LOG (e.g. RUST_LOG=debug) to change their level.")]
 struct Cli {
     #[command(subcommand)]
@@ -45,8 +45,18 @@ fn long_version() -> &'static str {
     TEXT.get_or_init(|| format!("{}\nrenderer: {}", env!("CARGO_PKG_VERSION"), tessera_worker::renderer_id()))
 }
 
+/// The command line, parsed. The renderer id's libm probe (about a millisecond, half of a
+/// `tessera healthcheck`'s start) is only run when `--version` asks for it.
+fn parse() -> Cli {
+    let mut command = Cli::command();
+    if std::env::args_os().skip(1).any(|a| a == "--version") {
+        command = command.long_version(long_version());
+    }
+    Cli::from_arg_matches(&command.get_matches()).unwrap_or_else(|e| e.exit())
+}
+
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = parse();
     let default_level = if matches!(cli.command, Command::Render(_) | Command::Submit(_) | Command::Job(_) | Command::Healthcheck(_) | Command::Bench(_)) { "warn" } else { "info" };
     tracing_subscriber::fmt()
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| default_level.into()))

@@ -47,7 +47,7 @@ impl Scheduler {
         let Some((seq, tile, batch, admission)) = pick else { return Ok(None) };
         let job = self.jobs.get_mut(&seq).expect("picked job exists");
         // Units leased to a worker that died unmerged mix nothing: only merged samples count.
-        if admission == Admission::Mixes && !self.mix_renderers && !job.renderers.is_empty() {
+        if admission == Admission::Mixes && !job.renderers.is_empty() {
             tracing::warn!(job = %job.cfg.id, worker, renderer = %mine, had = ?job.renderers, "no live worker of this job's renderer is left: it goes on with another, and its image mixes renderers");
         }
         job.mark_issued(tile, batch, now);

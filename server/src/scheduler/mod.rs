@@ -16,7 +16,7 @@
 //!   before a restart never names something after it.
 //! - A paused job is offered no units; the units it had leased finish and are merged.
 //! - A job's units go to workers of one renderer (`renderers.rs`): of the renderer its merged
-//!   and leased units have, while a worker of it is live.
+//!   and leased units have, while a live worker of it is not blocklisted from the job.
 //! - Jobs of higher priority go first; equal priorities share workers (fewest leases in flight
 //!   first), then first come, first served.
 mod durable;

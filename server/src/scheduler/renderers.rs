@@ -38,7 +38,7 @@ pub(super) struct RendererGate<'a> {
 /// Whether a worker may take a unit of a job, and what that does to the job's renderers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Admission {
-    /// The job has no renderer yet, or has the worker's.
+    /// The job has no renderer yet, has the worker's, or may mix (`--mix-renderers`).
     Same,
     /// The job's renderers have no live worker left: this worker adds its own.
     Mixes,
@@ -61,6 +61,9 @@ impl Scheduler {
 
 impl RendererGate<'_> {
     pub(super) fn admits(&self, job: &JobRun) -> Admission {
+        if self.mix {
+            return Admission::Same;
+        }
         let leased = self.leased.get(&job.seq);
         let has = job.renderers.iter().map(String::as_str).chain(leased.into_iter().flatten().copied());
         let mut any = false;
@@ -75,8 +78,8 @@ impl RendererGate<'_> {
         }
         match (any, live) {
             (false, _) => Admission::Same,
-            (true, true) if !self.mix => Admission::Refused,
-            (true, _) => Admission::Mixes,
+            (true, true) => Admission::Refused,
+            (true, false) => Admission::Mixes,
         }
     }
 }
