@@ -1,6 +1,6 @@
 //! The worker protocol: register, lease, heartbeat, result, release (see tessera_proto::lease).
 use crate::error::{AppError, Json};
-use crate::scheduler::{Accepted, PrepareKind, ResultError};
+use crate::scheduler::{Accepted, IdleReason, PrepareKind, ResultError};
 use crate::state::AppState;
 use axum::body::Bytes;
 use axum::extract::{Path, Query, State};
@@ -81,7 +81,7 @@ pub struct LeaseQuery {
 
 /// Take the next unit of work: 200 with a lease, 204 when there is none, 404 for unknown workers.
 #[utoipa::path(post, path = "/v1/leases", tag = "workers", request_body = LeaseRequest, params(LeaseQuery),
-    responses((status = 200, body = Lease), (status = 204, description = "no work now"), (status = 404, body = Problem)))]
+    responses((status = 200, body = Lease), (status = 204, description = "no work now; `x-tessera-idle-reason` says why when jobs with units left refuse this worker"), (status = 404, body = Problem)))]
 pub async fn lease(State(st): State<AppState>, Query(q): Query<LeaseQuery>, Json(req): Json<LeaseRequest>) -> Result<Response, AppError> {
     let deadline = tokio::time::Instant::now() + std::time::Duration::from_millis(q.wait_ms.unwrap_or(0).min(5000));
     let g = loop {
@@ -93,7 +93,10 @@ pub async fn lease(State(st): State<AppState>, Query(q): Query<LeaseQuery>, Json
         st.0.settle().await;
         match grant.map_err(AppError::not_found)? {
             Some(g) => break g,
-            None if tokio::time::Instant::now() >= deadline => return Ok(StatusCode::NO_CONTENT.into_response()),
+            None if tokio::time::Instant::now() >= deadline => {
+                let why = st.scheduler.lock().expect("lock").idle_reason(&req.worker_id, st.now());
+                return Ok(no_work(why));
+            }
             None => {
                 let _ = tokio::time::timeout_at(deadline, woken).await;
             }
@@ -102,6 +105,23 @@ pub async fn lease(State(st): State<AppState>, Query(q): Query<LeaseQuery>, Json
     st.counters.leases_granted.fetch_add(1, Ordering::Relaxed);
     st.notify(&g.job_id);
     Ok(axum::Json(g).into_response())
+}
+
+/// Answer header of a 204 to a worker that jobs with units left refuse: why (see
+/// `scheduler::IdleReason`).
+pub const IDLE_REASON: &str = "x-tessera-idle-reason";
+
+/// 204, with the reason in [`IDLE_REASON`] when there is one. Header values are visible ASCII:
+/// anything else (a renderer id may be any text) is shown as '?'.
+fn no_work(why: Option<IdleReason>) -> Response {
+    let mut resp = StatusCode::NO_CONTENT.into_response();
+    if let Some(why) = why {
+        let text: String = why.to_string().chars().map(|c| if c == ' ' || c.is_ascii_graphic() { c } else { '?' }).collect();
+        if let Ok(v) = header::HeaderValue::from_str(&text) {
+            resp.headers_mut().insert(IDLE_REASON, v);
+        }
+    }
+    resp
 }
 
 /// Extend a lease; 409 when it is gone (expired or its job ended): stop rendering it.
@@ -159,8 +179,11 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, Query(q)
         st.counters.merge_nanos.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
         // The worker's next unit in the same answer: one request per unit instead of two.
         let next = match &outcome {
-            Ok(a) if q.next == Some(true) => sched.lease(&a.worker, st.now()).ok().flatten(),
-            _ => None,
+            Ok(a) if q.next == Some(true) => match sched.lease(&a.worker, st.now()).ok().flatten() {
+                Some(lease) => Ok(lease),
+                None => Err(sched.idle_reason(&a.worker, st.now())),
+            },
+            _ => Err(None),
         };
         (outcome, next)
     };
@@ -176,12 +199,12 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, Query(q)
                 tokio::task::spawn_blocking(move || st2.finalize(&job_id)).await.map_err(AppError::internal)?;
             }
             Ok(match next {
-                Some(g) => {
+                Ok(g) => {
                     st.counters.leases_granted.fetch_add(1, Ordering::Relaxed);
                     st.notify(&g.job_id);
                     axum::Json(g).into_response()
                 }
-                None => StatusCode::NO_CONTENT.into_response(),
+                Err(why) => no_work(why),
             })
         }
         Err(ResultError::Stale(m)) => {

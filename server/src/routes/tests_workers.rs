@@ -280,10 +280,21 @@ async fn a_job_stays_with_the_renderer_that_started_it_and_its_status_names_it()
     assert_eq!(renderer_of(&old), "tessera 0.1.0 src:aaaa libm:0000");
     assert_eq!(renderer_of(&new), "tessera 0.1.0 src:bbbb libm:0000");
 
+    let idle_reason = axum::http::HeaderName::from_static(crate::routes::leases::IDLE_REASON);
+    let nothing = api.post_json("/v1/leases", &json!({"worker_id": new})).await;
+    nothing.expect(StatusCode::NO_CONTENT);
+    assert_eq!(nothing.header(idle_reason.clone()), "", "no jobs: nothing to explain");
+
     let job = api.submit(&tiled_job()).await;
     let job_id = job["id"].as_str().unwrap();
     let l = lease(&api, &old).await;
-    api.post_json("/v1/leases", &json!({"worker_id": new})).await.expect(StatusCode::NO_CONTENT);
+    let refused = api.post_json("/v1/leases", &json!({"worker_id": new})).await;
+    refused.expect(StatusCode::NO_CONTENT);
+    assert_eq!(
+        refused.header(idle_reason),
+        format!("jobs {job_id} are kept on renderer tessera 0.1.0 src:aaaa libm:0000 while a worker of it is live"),
+        "the 204 says why this worker idles beside a job with units left"
+    );
     put_result(&api, &l.lease_id, sums_for(&l, 1.0).encode()).await.expect(StatusCode::NO_CONTENT);
     assert_eq!(api.job(job_id).await["renderers"], json!(["tessera 0.1.0 src:aaaa libm:0000"]));
     api.post_json("/v1/leases", &json!({"worker_id": new})).await.expect(StatusCode::NO_CONTENT);

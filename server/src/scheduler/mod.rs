@@ -21,6 +21,7 @@
 //!   first), then first come, first served.
 mod durable;
 mod frames;
+mod idle;
 mod job;
 mod leases;
 mod renderers;
@@ -31,6 +32,8 @@ mod tests_durable;
 #[cfg(test)]
 mod tests_frames;
 #[cfg(test)]
+mod tests_idle;
+#[cfg(test)]
 mod tests_numerics;
 #[cfg(test)]
 mod tests_pause;
@@ -40,6 +43,7 @@ mod tile;
 
 pub use durable::{JobCheckpoint, JobRecord, RestoredTile, TileCheckpoint, TileMark};
 pub use frames::{FramePrepare, PrepareKind};
+pub use idle::IdleReason;
 pub use job::{Failures, JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP, Contributor};
 pub use tile::TileRun;
 use leases::LeaseRec;

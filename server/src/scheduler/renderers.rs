@@ -60,12 +60,17 @@ impl Scheduler {
 }
 
 impl RendererGate<'_> {
+    /// The renderers a job has: of its merged units and of the units leased now.
+    pub(super) fn renderers_of<'j>(&'j self, job: &'j JobRun) -> impl Iterator<Item = &'j str> {
+        let leased = self.leased.get(&job.seq);
+        job.renderers.iter().map(String::as_str).chain(leased.into_iter().flatten().copied())
+    }
+
     pub(super) fn admits(&self, job: &JobRun) -> Admission {
         if self.mix {
             return Admission::Same;
         }
-        let leased = self.leased.get(&job.seq);
-        let has = job.renderers.iter().map(String::as_str).chain(leased.into_iter().flatten().copied());
+        let has = self.renderers_of(job);
         let mut any = false;
         let mut live = false;
         for r in has {

@@ -51,6 +51,8 @@ pub(crate) enum UploadAnswer {
 /// Result upload headers: how the unit's scene was prepared, and in how many milliseconds.
 pub(crate) const PREPARE: &str = "x-tessera-prepare";
 pub(crate) const PREPARE_MS: &str = "x-tessera-prepare-ms";
+/// On a 204 to a lease request: why jobs with units left refuse this worker.
+pub(crate) const IDLE_REASON: &str = "x-tessera-idle-reason";
 
 /// Request timeouts. Scene downloads may be large, hence their long one.
 const JSON_TIMEOUT: Duration = Duration::from_secs(30);
@@ -74,6 +76,8 @@ pub(crate) struct Api {
     http: Client,
     base: String,
     token: Option<String>,
+    /// The last idle reason logged (see [`Api::note_idle`]).
+    idle_reason: std::sync::Mutex<Option<String>>,
 }
 
 impl Api {
@@ -92,7 +96,24 @@ impl Api {
             .user_agent(concat!("tessera-worker/", env!("CARGO_PKG_VERSION")))
             .build()
             .context("cannot build the HTTP client")?;
-        Ok(Api { http, base, token: token.filter(|t| !t.is_empty()) })
+        Ok(Api { http, base, token: token.filter(|t| !t.is_empty()), idle_reason: Default::default() })
+    }
+
+    /// Logs why the coordinator gives this worker no work (`x-tessera-idle-reason` on a 204:
+    /// jobs with units left are pinned to another renderer or keep it off), once per change
+    /// rather than on every poll; work or a plain 204 clears it. True when it logged.
+    pub(crate) fn note_idle(&self, headers: Option<&reqwest::header::HeaderMap>) -> bool {
+        let reason = headers.and_then(|h| h.get(IDLE_REASON)).and_then(|v| v.to_str().ok()).map(str::to_owned);
+        let mut last = self.idle_reason.lock().expect("lock");
+        if reason == *last {
+            return false;
+        }
+        match &reason {
+            Some(why) => tracing::info!("idle beside jobs with work left: {why}"),
+            None => tracing::info!("no longer kept off the farm's jobs"),
+        }
+        *last = reason;
+        true
     }
 
     pub(crate) fn base(&self) -> &str {
@@ -119,8 +140,14 @@ impl Api {
         let body = LeaseRequest { worker_id: worker_id.to_owned() };
         let resp = send(self.request(Method::POST, "/v1/leases?wait_ms=1000", LEASE_TIMEOUT).json(&body), "lease request").await?;
         match resp.status() {
-            StatusCode::OK => Ok(LeaseAnswer::Lease(Box::new(json(resp, "lease request", |b| serde_json::from_slice::<Lease>(b)).await?))),
-            StatusCode::NO_CONTENT => Ok(LeaseAnswer::NoWork),
+            StatusCode::OK => {
+                self.note_idle(None);
+                Ok(LeaseAnswer::Lease(Box::new(json(resp, "lease request", |b| serde_json::from_slice::<Lease>(b)).await?)))
+            }
+            StatusCode::NO_CONTENT => {
+                self.note_idle(Some(resp.headers()));
+                Ok(LeaseAnswer::NoWork)
+            }
             StatusCode::NOT_FOUND => Ok(LeaseAnswer::UnknownWorker),
             _ => Err(unexpected(resp, "lease request").await),
         }
@@ -153,11 +180,19 @@ impl Api {
             .body(body);
         let resp = send(rb, "result upload").await?;
         match resp.status() {
-            StatusCode::NO_CONTENT => Ok(UploadAnswer::Merged(None)),
+            StatusCode::NO_CONTENT => {
+                if next {
+                    self.note_idle(Some(resp.headers()));
+                }
+                Ok(UploadAnswer::Merged(None))
+            }
             StatusCode::OK if !next => Ok(UploadAnswer::Merged(None)),
             // Merged whatever the lease's body holds: a retry would only be told the result is stale.
             StatusCode::OK => match json(resp, "result upload", |b| serde_json::from_slice::<Lease>(b)).await {
-                Ok(lease) => Ok(UploadAnswer::Merged(Some(Box::new(lease)))),
+                Ok(lease) => {
+                    self.note_idle(None);
+                    Ok(UploadAnswer::Merged(Some(Box::new(lease))))
+                }
                 Err(e) => {
                     tracing::warn!(lease = lease_id, "result merged, but the next lease in its answer is unreadable ({e}); it will expire");
                     Ok(UploadAnswer::Merged(None))

@@ -476,3 +476,21 @@ async fn shutdown_gives_back_a_prefetched_lease() {
 
 #[path = "tests_carried.rs"]
 mod carried;
+
+/// Why the coordinator gives no work is logged when it changes, not on every poll.
+#[test]
+fn an_idle_reason_is_logged_once_per_change() {
+    let api = api::Api::new("http://127.0.0.1:1", None).unwrap();
+    let with = |why: &str| {
+        let mut h = reqwest::header::HeaderMap::new();
+        h.insert(api::IDLE_REASON, why.parse().unwrap());
+        h
+    };
+    let (a, b, plain) = (with("jobs j are kept on renderer x"), with("jobs j keep this worker off"), reqwest::header::HeaderMap::new());
+    assert!(!api.note_idle(Some(&plain)), "a plain 204 while nothing was logged: nothing to say");
+    assert!(api.note_idle(Some(&a)));
+    assert!(!api.note_idle(Some(&a)), "the same reason on the next poll");
+    assert!(api.note_idle(Some(&b)), "a new reason");
+    assert!(api.note_idle(None), "work came: the reason is over");
+    assert!(!api.note_idle(Some(&plain)));
+}
