@@ -76,4 +76,8 @@ pub struct WorkerInfo {
     /// Its renderer id (see [`WorkerHello::renderer`]).
     #[serde(default)]
     pub renderer: String,
+    /// Why it holds no unit while jobs with units left refuse it (they are kept on another
+    /// renderer, or their blocklist keeps it off); absent when it is busy or there is no work.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub idle_reason: Option<String>,
 }

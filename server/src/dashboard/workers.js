@@ -23,9 +23,9 @@ export function start(onError) {
   };
 }
 
-/** "job/tile/batch" → a link to the job plus the unit. */
-function unit(current) {
-  if (!current) return fmt.el("span", { class: "muted", text: "idle" });
+/** "job/tile/batch" → a link to the job plus the unit; idle, and why when jobs refuse it. */
+function unit(current, idleReason) {
+  if (!current) return fmt.el("span", { class: "muted", text: idleReason ? `idle: ${idleReason}` : "idle" });
   const [job, tile, batch] = current.split("/");
   const link = fmt.el("a", { href: `#/job/${encodeURIComponent(job)}`, class: "mono", text: job });
   return fmt.el("span", {}, link, ` tile ${tile}, batch ${batch}`);
@@ -39,7 +39,7 @@ function show(workers) {
       fmt.el("th", { scope: "row", text: w.name }),
       fmt.el("td", { class: "mono", text: w.id }),
       fmt.el("td", { class: "num", text: String(w.threads) }),
-      fmt.el("td", {}, unit(w.current)),
+      fmt.el("td", {}, unit(w.current, w.idle_reason)),
       fmt.el("td", { class: "num", text: String(w.units_done) }),
       fmt.el("td", { class: `num${w.failures ? " warn" : ""}`, text: String(w.failures) }),
       fmt.el("td", { text: `${fmt.duration(w.last_seen_ms_ago / 1000)} ago` }),

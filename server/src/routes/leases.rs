@@ -61,6 +61,7 @@ pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<WorkerInfo>> {
                 failures: w.failures,
                 last_seen_ms_ago: now.saturating_sub(w.last_seen),
                 renderer: w.renderer.clone(),
+                idle_reason: w.current.is_none().then(|| s.idle_reason(id, now)).flatten().map(|why| why.to_string()),
             })
             .collect(),
     )

@@ -291,10 +291,14 @@ async fn a_job_stays_with_the_renderer_that_started_it_and_its_status_names_it()
     let refused = api.post_json("/v1/leases", &json!({"worker_id": new})).await;
     refused.expect(StatusCode::NO_CONTENT);
     assert_eq!(
-        refused.header(idle_reason),
+        refused.header(idle_reason.clone()),
         format!("jobs {job_id} are kept on renderer tessera 0.1.0 src:aaaa libm:0000 while a worker of it is live"),
         "the 204 says why this worker idles beside a job with units left"
     );
+    let workers = api.get("/v1/workers").await.json();
+    let idle_reason_of = |id: &str| workers.as_array().unwrap().iter().find(|w| w["id"] == id).unwrap().get("idle_reason").cloned();
+    assert_eq!(idle_reason_of(&new), Some(json!(refused.header(idle_reason.clone()))), "the workers list says it too");
+    assert_eq!(idle_reason_of(&old), None, "busy");
     put_result(&api, &l.lease_id, sums_for(&l, 1.0).encode()).await.expect(StatusCode::NO_CONTENT);
     assert_eq!(api.job(job_id).await["renderers"], json!(["tessera 0.1.0 src:aaaa libm:0000"]));
     api.post_json("/v1/leases", &json!({"worker_id": new})).await.expect(StatusCode::NO_CONTENT);
