@@ -21,8 +21,9 @@ pub struct WorkerHello {
     /// Which renderer the worker runs: `tessera <version> src:<hash> libm:<hash>` (its build's
     /// source hash and a probe of its libm). A job's units go to workers of one renderer while
     /// one is live, so its bits do not depend on who rendered what. Absent (empty) from workers
-    /// that predate it: they count as one renderer.
-    #[serde(default)]
+    /// that predate it: they count as one renderer. Not sent when empty, so a worker can still
+    /// register with a coordinator that predates the field.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
     pub renderer: String,
 }
 

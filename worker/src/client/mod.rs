@@ -314,10 +314,22 @@ impl Worker {
     }
 
     /// Registers, retrying until it works; None on shutdown.
+    ///
+    /// A coordinator older than renderer ids refuses the `renderer` field (its hello denies
+    /// unknown fields): the worker then registers without it, so upgrading workers before the
+    /// coordinator does not stop them; that coordinator mixes renderers anyway.
     async fn register(&self, stop: &Stop) -> anyhow::Result<Option<Registration>> {
         let threads = u32::try_from(self.pool.current_num_threads()).unwrap_or(u32::MAX);
-        let hello = WorkerHello { name: self.name.clone(), threads, renderer: crate::renderer_id().to_owned() };
-        match until_done("registration", stop, Duration::ZERO, || self.api.register(&hello)).await {
+        let mut hello = WorkerHello { name: self.name.clone(), threads, renderer: crate::renderer_id().to_owned() };
+        let mut answer = until_done("registration", stop, Duration::ZERO, || self.api.register(&hello)).await;
+        if let Retried::Fatal(e) = &answer
+            && e.contains("unknown field `renderer`")
+        {
+            warn!(coordinator = self.api.base(), "the coordinator predates renderer ids: registering without one (upgrade it to keep each job on one renderer)");
+            hello.renderer.clear();
+            answer = until_done("registration", stop, Duration::ZERO, || self.api.register(&hello)).await;
+        }
+        match answer {
             Retried::Done(reg) => {
                 info!(worker_id = %reg.worker_id, heartbeat_ms = reg.heartbeat_ms, coordinator = self.api.base(), renderer = %hello.renderer, "registered");
                 Ok(Some(reg))

@@ -234,6 +234,21 @@ async fn reregisters_after_a_404_on_lease() {
     assert_eq!(&workers[..3], ["w1", "w1", "w2"], "leases are requested as w2 after the 404");
 }
 
+/// A coordinator older than renderer ids refuses the hello's `renderer`: the worker registers
+/// without it and works.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn registers_without_a_renderer_with_a_coordinator_that_predates_them() {
+    let mock = Mock::new(3000, vec![small("a", 0, [0, 2])]);
+    mock.log().predates_renderer_ids = true;
+    let base = start(&mock).await;
+    let worker = spawn_worker(&base);
+    wait_until("the result arrives", Duration::from_secs(30), || mock.log().results.len() == 1).await;
+    let (report, _) = worker.stop(Duration::from_secs(10)).await;
+
+    assert_eq!(report.units_done, 1);
+    assert_eq!(mock.log().renderers, [""], "registered once, without a renderer");
+}
+
 /// (6) Shutdown while idle (204s) returns promptly, as does shutdown while the coordinator is
 /// unreachable and registration keeps failing.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
