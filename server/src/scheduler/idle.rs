@@ -11,6 +11,9 @@ use std::collections::BTreeSet;
 use std::fmt;
 use tessera_proto::JobState;
 
+/// Jobs named in the message, of each kind.
+const SHOWN: usize = 5;
+
 /// Jobs with units left that this worker may not take, and why.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct IdleReason {
@@ -42,7 +45,11 @@ impl Scheduler {
 
 impl fmt::Display for IdleReason {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let list = |v: &[String]| v.join(", ");
+        // It travels in a header: a farm with hundreds of queued jobs names the first few.
+        let list = |v: &[String]| match v.len() {
+            n if n > SHOWN => format!("{} and {} more", v[..SHOWN].join(", "), n - SHOWN),
+            _ => v.join(", "),
+        };
         if !self.pinned.is_empty() {
             let renderers: Vec<String> = self.renderers.iter().map(|r| if r.is_empty() { "(unnamed)".to_owned() } else { r.clone() }).collect();
             write!(f, "jobs {} are kept on renderer {} while a worker of it is live", list(&self.pinned), renderers.join(" / "))?;

@@ -53,3 +53,9 @@ fn a_blocklisted_worker_is_told_which_jobs_keep_it_off() {
     assert!(why.pinned.is_empty());
     assert_eq!(why.to_string(), "jobs j keep this worker off after its failures");
 }
+
+#[test]
+fn a_long_list_of_jobs_names_the_first_few() {
+    let why = IdleReason { pinned: (1..=8).map(|i| format!("j{i}")).collect(), renderers: [OLD.to_owned()].into(), blocklisted: vec![] };
+    assert_eq!(why.to_string(), format!("jobs j1, j2, j3, j4, j5 and 3 more are kept on renderer {OLD} while a worker of it is live"));
+}
