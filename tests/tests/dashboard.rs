@@ -1,6 +1,7 @@
 //! The dashboard end to end in headless Chromium, against a real coordinator that requires tokens:
 //! enter the token, get an inline error, submit the Cornell box, watch progress reach 100 % and the
-//! preview change, download the EXR and decode it; then the job list and the workers page.
+//! preview change, download the EXR and decode it; then the job list and the workers page, where
+//! a worker of another renderer says why it idles.
 use crate::browser::{Browser, skip_or_require};
 use crate::cluster::Farm;
 use crate::harness::temp_dir;
@@ -8,6 +9,7 @@ use fantoccini::Locator;
 use serde_json::{Value, json};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+use tessera_proto::JobRequest;
 use tessera_server::client::Coordinator;
 use tessera_server::output::decode_exr;
 
@@ -135,6 +137,18 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
     assert_eq!(units, "2", "one 64×64 tile × two 16-spp batches");
     let renderer = b.js(r##"return document.querySelector("#workers tbody tr").cells[7].textContent;"##).await;
     assert_eq!(renderer, tessera_worker::renderer_id(), "the worker's renderer id");
+
+    // A worker of another renderer beside a job this worker renders: its row says why it idles.
+    let other = "tessera 0.0.0 src:000000000000 libm:00000000";
+    let hello = json!({"name": "other", "threads": 1, "renderer": other});
+    let reg: Value = reqwest::Client::new().post(format!("{url}/v1/workers")).bearer_auth(WORKER).json(&hello).send().await.unwrap().json().await.unwrap();
+    let long = JobRequest { scene: "furnace".into(), width: 64, height: 64, spp: Some(1 << 20), ..JobRequest::default() };
+    let long = api.submit(&long).await.unwrap();
+    let script = format!(r#"const r = document.querySelector('tr[data-worker="{}"]'); const t = r && r.cells[3].textContent; return t && t.startsWith("idle: ") && t;"#, reg["worker_id"].as_str().unwrap());
+    let idle = b.until("the other renderer's idle reason", 20, &script).await;
+    let expected = format!("idle: jobs {} are kept on renderer {} while a worker of it is live", long.id, tessera_worker::renderer_id());
+    assert_eq!(idle, expected);
+    api.cancel(&long.id).await.unwrap();
 }
 
 /// Snapshots the job page every 50 ms until it shows the job done at 100 % with its final
