@@ -109,7 +109,7 @@ impl Api {
             return false;
         }
         match &reason {
-            Some(why) => tracing::info!("idle beside jobs with work left: {why}"),
+            Some(why) => tracing::info!("jobs with units left refuse this worker: {why}"),
             None => tracing::info!("no longer kept off the farm's jobs"),
         }
         *last = reason;
