@@ -6,10 +6,9 @@
 //! an idle machine on a busy farm and no cause; the lease answer carries the reason
 //! (`x-tessera-idle-reason`) and the worker logs it when it changes.
 use super::Scheduler;
-use super::renderers::Admission;
+use super::leases::Refusal;
 use std::collections::BTreeSet;
 use std::fmt;
-use tessera_proto::JobState;
 
 /// Jobs named in the message, of each kind.
 const SHOWN: usize = 5;
@@ -26,17 +25,21 @@ pub struct IdleReason {
 
 impl Scheduler {
     /// Why `worker` gets no unit now, when jobs with units left refuse it; None when there is
-    /// simply nothing to do (or the worker is unknown). Mirrors the filters of `lease`.
+    /// simply nothing to do (or the worker is unknown). `Scheduler::admission` is the rule, as
+    /// in `lease`.
     pub fn idle_reason(&self, worker: &str, now: u64) -> Option<IdleReason> {
         let mine = &self.workers.get(worker)?.renderer;
         let gate = self.renderer_gate(mine, now);
         let mut why = IdleReason::default();
-        for job in self.jobs.values().filter(|j| j.state != JobState::Paused && j.next_unit(None).is_some()) {
-            if job.is_blocked(worker, self.max_failures) {
-                why.blocklisted.push(job.cfg.id.clone());
-            } else if gate.admits(job) == Admission::Refused {
-                why.pinned.push(job.cfg.id.clone());
-                why.renderers.extend(gate.renderers_of(job).map(str::to_owned));
+        for job in self.jobs.values().filter(|j| j.next_unit(None).is_some()) {
+            match self.admission(job, worker, &gate) {
+                Err(Refusal::Blocklisted) => why.blocklisted.push(job.cfg.id.clone()),
+                Err(Refusal::OtherRenderer) => {
+                    why.pinned.push(job.cfg.id.clone());
+                    why.renderers.extend(gate.renderers_of(job).map(str::to_owned));
+                }
+                // A paused job refuses every worker alike: not this worker's reason.
+                Err(Refusal::Paused) | Ok(_) => {}
             }
         }
         (!why.pinned.is_empty() || !why.blocklisted.is_empty()).then_some(why)

@@ -2,10 +2,21 @@
 //! released, expired by `tick`, or revoked when its job no longer wants the unit.
 use super::frames::{self, PrepareKind};
 use super::job::{Contributor, JobRun};
-use super::renderers::Admission;
+use super::renderers::{Admission, RendererGate};
 use super::{Accepted, ResultError, Scheduler};
 use std::collections::HashMap;
 use tessera_proto::{JobState, Lease, PartialSums};
+
+/// What keeps a worker off a job that has units left.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Refusal {
+    /// Paused: no worker gets its units.
+    Paused,
+    /// The job's blocklist: this worker failed it too often.
+    Blocklisted,
+    /// The job is kept on another renderer (`renderers.rs`).
+    OtherRenderer,
+}
 
 #[derive(Clone, Debug)]
 pub(super) struct LeaseRec {
@@ -36,9 +47,10 @@ impl Scheduler {
         let pick = self
             .jobs
             .values()
-            .filter(|j| j.state != JobState::Paused && !j.is_blocked(worker, self.max_failures))
-            .filter_map(|j| j.next_unit(self.affinity(j, last_frame).as_ref()).map(|u| (j, u, gate.admits(j))))
-            .filter(|(_, _, admission)| *admission != Admission::Refused)
+            .filter_map(|j| {
+                let unit = j.next_unit(self.affinity(j, last_frame).as_ref())?;
+                self.admission(j, worker, &gate).ok().map(|admission| (j, unit, admission))
+            })
             // Reverse, not negation: −i32::MIN overflows (a panic in debug builds, the lowest
             // priority first in release ones).
             .min_by_key(|(j, _, _)| (std::cmp::Reverse(j.cfg.priority), in_flight.get(&j.seq).copied().unwrap_or(0), j.seq))
@@ -72,6 +84,21 @@ impl Scheduler {
             samples: job.samples_of(batch),
             deadline_ms: self.lease_timeout_ms,
         }))
+    }
+
+    /// Whether `worker` may take units of `job` (which has units left), or what keeps it off:
+    /// the one rule both [`Scheduler::lease`] and [`Scheduler::idle_reason`] apply.
+    pub(super) fn admission(&self, job: &JobRun, worker: &str, gate: &RendererGate) -> Result<Admission, Refusal> {
+        if job.state == JobState::Paused {
+            return Err(Refusal::Paused);
+        }
+        if job.is_blocked(worker, self.max_failures) {
+            return Err(Refusal::Blocklisted);
+        }
+        match gate.admits(job) {
+            Admission::Refused => Err(Refusal::OtherRenderer),
+            admission => Ok(admission),
+        }
     }
 
     /// Where the worker's built scene is and where other workers are, for a job of several
