@@ -31,6 +31,10 @@ pub struct JobRequest {
     pub batch_spp: Option<u32>,
     /// Safety cap on bounces (default 1024).
     pub max_depth: Option<u32>,
+    /// Russian roulette may end paths from this bounce on (default 5); 0 turns it off, so
+    /// paths run to `max_depth`. Any value gives the same expected image; lower is faster and
+    /// noisier per sample.
+    pub roulette_depth: Option<u32>,
     /// Constant background radiance, linear RGB (default black).
     pub background: Option<[f32; 3]>,
     /// Higher runs first; equal priorities share workers fairly (default 0).
@@ -71,6 +75,10 @@ pub struct RenderParams {
     pub sampler: String,
     pub camera: Option<String>,
     pub max_depth: u32,
+    /// Russian roulette from this bounce on (0: off). None, from a coordinator that predates the
+    /// setting, leaves the worker's default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub roulette_depth: Option<u32>,
     pub background: [f32; 3],
     /// The glTF animation, by name or index; None plays the first one (if the scene has any).
     #[serde(default)]

@@ -23,7 +23,7 @@ use super::accuracy::reference::{self, Reference};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
-use tessera_worker::tracer::integrator::{PathSettings, Roulette};
+use tessera_worker::tracer::integrator::{DEFAULT_ROULETTE_DEPTH, PathSettings, Roulette};
 use tessera_worker::tracer::sampler::SamplerKind;
 use tessera_worker::tracer::{PixelSums, RenderSettings, Scene, render_tile};
 
@@ -57,9 +57,13 @@ pub struct MitsubaBench {
     #[arg(long)]
     pub skip_mitsuba: bool,
     /// Tessera's Russian roulette: survive with probability max(β) from this bounce on
-    /// (0: roulette off).
-    #[arg(long, default_value_t = 3)]
-    pub roulette_depth: u32,
+    /// (0: roulette off); several, comma-separated, are compared side by side.
+    #[arg(long, value_delimiter = ',', default_values_t = [DEFAULT_ROULETTE_DEPTH])]
+    pub roulette_depth: Vec<u32>,
+    /// Bundled scene to render. Mitsuba renders only the Cornell box (its scene is built from
+    /// `scenes/generate.py`); any other scene measures Tessera's side alone.
+    #[arg(long, default_value = "cornell-box")]
+    pub scene: String,
 }
 
 /// One configuration's figures.
@@ -80,17 +84,23 @@ impl Row {
     }
 }
 
-const SCENE: &str = "cornell-box";
+const CORNELL: &str = "cornell-box";
 const INSTALL: &str = "pip install mitsuba numpy OpenEXR; apt-get install -y libllvm19; \
                        export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1";
 
 pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
     anyhow::ensure!(b.size > 0 && b.repeats > 0 && b.reference_spp > 0 && !b.spp.contains(&0), "sizes, spp and repeats must be positive");
-    let bytes = crate::bundled::get(SCENE).expect("the Cornell box is bundled");
+    anyhow::ensure!(!b.roulette_depth.is_empty(), "give at least one --roulette-depth");
+    let name = b.scene.as_str();
+    let bytes = crate::bundled::get(name).ok_or_else(|| anyhow::anyhow!("no bundled scene {name:?}; bundled: {}", crate::bundled::names().join(", ")))?;
     let scene = tessera_worker::scene::load_bytes(bytes, None)?;
-    let reference = reference::rendered_with(&scene, bytes, SCENE, b.size, b.reference_spp, SamplerKind::Independent, &b.cache)?;
+    let reference = reference::rendered_with(&scene, bytes, name, b.size, b.reference_spp, SamplerKind::Independent, &b.cache)?;
+    let skip_mitsuba = b.skip_mitsuba || name != CORNELL;
+    if name != CORNELL && !b.skip_mitsuba {
+        println!("Mitsuba's side exists for {CORNELL} only: measuring Tessera alone");
+    }
     println!(
-        "time to quality: {SCENE} {0}×{0}, {1} threads; reference {2} (its noise, relMSE {3:.2e}, subtracted)",
+        "time to quality: {name} {0}×{0}, {1} threads; reference {2} (its noise, relMSE {3:.2e}, subtracted)",
         b.size,
         rayon::current_num_threads(),
         reference.description,
@@ -99,11 +109,13 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
     let mut rows = Vec::new();
     let mut mitsuba_missing = None;
     for &spp in &b.spp {
-        for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
-            rows.push(tessera_row(&scene, &reference, b, spp, sampler)?);
-            print_row(rows.last().expect("pushed"));
+        for &depth in &b.roulette_depth {
+            for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
+                rows.push(tessera_row(&scene, &reference, b, spp, sampler, depth)?);
+                print_row(rows.last().expect("pushed"));
+            }
         }
-        if mitsuba_missing.is_some() || b.skip_mitsuba {
+        if mitsuba_missing.is_some() || skip_mitsuba {
             continue;
         }
         match mitsuba_rows(&reference, b, spp) {
@@ -114,7 +126,7 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
             Err(e) => mitsuba_missing = Some(e),
         }
     }
-    if b.skip_mitsuba {
+    if skip_mitsuba {
         return Ok(rows);
     }
     if let Some(e) = mitsuba_missing {
@@ -158,7 +170,7 @@ fn print_ratio(rows: &[Row], spp: u32) {
     }
 }
 
-fn tessera_row(scene: &Scene, reference: &Reference, b: &MitsubaBench, spp: u32, sampler: SamplerKind) -> anyhow::Result<Row> {
+fn tessera_row(scene: &Scene, reference: &Reference, b: &MitsubaBench, spp: u32, sampler: SamplerKind, depth: u32) -> anyhow::Result<Row> {
     let (mut seconds, mut error, mut rays) = (f64::INFINITY, 0.0, 0);
     for r in 0..b.repeats {
         let settings = RenderSettings {
@@ -166,7 +178,7 @@ fn tessera_row(scene: &Scene, reference: &Reference, b: &MitsubaBench, spp: u32,
             height: b.size,
             seed: 1 + r as u64,
             sampler,
-            path: PathSettings { roulette: roulette(b.roulette_depth), ..PathSettings::default() },
+            path: PathSettings { roulette: Roulette::from_depth(depth), ..PathSettings::default() },
             background: glam::Vec3::ZERO,
             camera: None,
         };
@@ -177,11 +189,9 @@ fn tessera_row(scene: &Scene, reference: &Reference, b: &MitsubaBench, spp: u32,
         error += rel_mse_above_reference(sums.pixels.iter().map(PixelSums::mean), reference);
     }
     let rays_per_s = Some(rays as f64 / seconds);
-    Ok(Row { renderer: "tessera", rays_per_s, sampler: sampler.name().into(), spp, seconds, rel_mse: error / b.repeats as f64 })
-}
-
-fn roulette(depth: u32) -> Roulette {
-    if depth == 0 { Roulette::Off } else { Roulette::Throughput { min_depth: depth } }
+    // With one roulette depth the label stays the sampler's name, as the ratio lines print it.
+    let label = if b.roulette_depth.len() > 1 { format!("{} rr{depth}", sampler.name()) } else { sampler.name().into() };
+    Ok(Row { renderer: "tessera", rays_per_s, sampler: label, spp, seconds, rel_mse: error / b.repeats as f64 })
 }
 
 /// relMSE with the reference's own expected share removed: E[(x − r)²] = E[(x − μ)²] + Var(r)
@@ -259,7 +269,8 @@ mod tests {
             python: python.into(),
             cache: cache.to_path_buf(),
             skip_mitsuba: false,
-            roulette_depth: 3,
+            roulette_depth: vec![3],
+            scene: CORNELL.into(),
         }
     }
 

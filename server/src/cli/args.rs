@@ -35,6 +35,10 @@ pub struct JobArgs {
     /// Safety cap on bounces per path (Russian roulette ends paths long before).
     #[arg(long, default_value_t = 1024)]
     pub max_depth: u32,
+    /// Russian roulette may end paths from this bounce on (0: off, paths run to --max-depth).
+    /// Lower is faster per sample and noisier; the expected image is the same.
+    #[arg(long, default_value_t = tessera_worker::tracer::integrator::DEFAULT_ROULETTE_DEPTH)]
+    pub roulette_depth: u32,
     /// Tile edge in pixels: one unit of work is a tile over a batch of samples.
     #[arg(long, default_value_t = 64)]
     pub tile_size: u32,
@@ -72,6 +76,7 @@ impl JobArgs {
             tile_size: Some(self.tile_size),
             batch_spp: Some(self.batch_spp),
             max_depth: Some(self.max_depth),
+            roulette_depth: Some(self.roulette_depth),
             background: self.background,
             priority: Some(self.priority),
             frames: self.frames.map(|(start, end, step)| FrameRange { start, end, step: Some(step), fps: Some(self.fps) }),

@@ -5,6 +5,7 @@ use crate::scheduler::JobConfig;
 use tessera_proto::job::DEFAULT_FPS;
 use tessera_proto::{FrameRange, JobRequest, RenderParams};
 use tessera_worker::tracer::Estimator;
+use tessera_worker::tracer::integrator::DEFAULT_ROULETTE_DEPTH;
 use tessera_worker::tracer::sampler::SamplerKind;
 
 pub const MAX_SIDE: u32 = 16384;
@@ -51,6 +52,7 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
     let tile_size = in_range("tile_size", req.tile_size.unwrap_or(64), 8, 1024)?;
     let batch_spp = in_range("batch_spp", req.batch_spp.unwrap_or(16), 1, 4096)?;
     let max_depth = in_range("max_depth", req.max_depth.unwrap_or(1024), 1, 65536)?;
+    let roulette_depth = in_range("roulette_depth", req.roulette_depth.unwrap_or(DEFAULT_ROULETTE_DEPTH), 0, 65536)?;
     let background = req.background.unwrap_or([0.0; 3]);
     if background.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
         return Err(AppError::field("background", "background must be three finite numbers ≥ 0"));
@@ -75,6 +77,7 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
         sampler: sampler.name().into(),
         camera: req.camera.clone(),
         max_depth,
+        roulette_depth: Some(roulette_depth),
         background,
         animation: req.animation.clone(),
         fps,

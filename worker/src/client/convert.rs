@@ -19,7 +19,7 @@ pub fn to_wire(sums: &TileSums, samples: [u32; 2]) -> PartialSums {
     }
 }
 
-/// The tracer's settings for a job's render parameters (Russian roulette at its default).
+/// The tracer's settings for a job's render parameters.
 pub fn render_settings(params: &RenderParams) -> Result<RenderSettings, String> {
     let estimator = Estimator::from_str(&params.estimator)?;
     let sampler = SamplerKind::from_str(&params.sampler).map_err(|e| e.to_string())?;
@@ -34,7 +34,7 @@ pub fn render_settings(params: &RenderParams) -> Result<RenderSettings, String> 
         height: params.height,
         seed: params.seed,
         sampler,
-        path: PathSettings { estimator, roulette: Roulette::default(), max_depth: params.max_depth },
+        path: PathSettings { estimator, roulette: params.roulette_depth.map_or_else(Roulette::default, Roulette::from_depth), max_depth: params.max_depth },
         background: Vec3::from_array(params.background),
         camera: params.camera.clone(),
     })
@@ -58,6 +58,7 @@ mod tests {
             sampler: "independent".into(),
             camera: Some("Camera".into()),
             max_depth: 12,
+            roulette_depth: Some(7),
             background: [0.5, 0.25, 0.0],
             animation: None,
             fps: tessera_proto::job::DEFAULT_FPS,
@@ -69,9 +70,17 @@ mod tests {
         let s = render_settings(&params()).unwrap();
         assert_eq!((s.width, s.height, s.seed), (64, 48, 7));
         assert_eq!(s.sampler, SamplerKind::Independent);
-        assert_eq!(s.path, PathSettings { estimator: Estimator::Bsdf, roulette: Roulette::default(), max_depth: 12 });
+        assert_eq!(s.path, PathSettings { estimator: Estimator::Bsdf, roulette: Roulette::Throughput { min_depth: 7 }, max_depth: 12 });
         assert_eq!(s.background, Vec3::new(0.5, 0.25, 0.0));
         assert_eq!(s.camera.as_deref(), Some("Camera"));
+    }
+
+    #[test]
+    fn roulette_depth_zero_is_off_and_absent_is_the_default() {
+        let off = render_settings(&RenderParams { roulette_depth: Some(0), ..params() }).unwrap();
+        assert_eq!(off.path.roulette, Roulette::Off);
+        let old = render_settings(&RenderParams { roulette_depth: None, ..params() }).unwrap();
+        assert_eq!(old.path.roulette, Roulette::default());
     }
 
     #[test]

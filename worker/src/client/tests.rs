@@ -68,6 +68,7 @@ fn params(width: u32, height: u32) -> RenderParams {
         sampler: "sobol".into(),
         camera: None,
         max_depth: 64,
+        roulette_depth: None,
         background: [0.0; 3],
         animation: None,
         fps: tessera_proto::job::DEFAULT_FPS,
