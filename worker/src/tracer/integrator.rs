@@ -73,9 +73,11 @@ pub enum Roulette {
     Throughput { min_depth: u32 },
 }
 
-/// The bounce from which [`Roulette::default`] may end paths. Five, as in Mitsuba 3: measured
-/// against three on eleven bundled scenes, it gave equal or lower relMSE × seconds on every one
-/// (10–16 % lower on the Cornell box, up to 2× on glass; docs/performance.md, session 19).
+/// The bounce from which [`Roulette::default`] may end paths. Five, as in Mitsuba 3: against
+/// three on eleven bundled scenes it lowered relMSE at equal spp everywhere, and relMSE ×
+/// seconds in 19 of 22 cases (up to 2.2× on glass; the other three within run-to-run time
+/// noise, ≤ 9 %). Paths carrying caustics through glass were the ones roulette cut short;
+/// docs/performance.md, session 19.
 pub const DEFAULT_ROULETTE_DEPTH: u32 = 5;
 
 impl Roulette {
