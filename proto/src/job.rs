@@ -31,8 +31,8 @@ pub struct JobRequest {
     pub batch_spp: Option<u32>,
     /// Safety cap on bounces (default 1024).
     pub max_depth: Option<u32>,
-    /// Russian roulette may end paths from this bounce on (default 5); 0 turns it off, so
-    /// paths run to `max_depth`. Any value gives the same expected image; lower is faster and
+    /// Russian roulette may end paths from this non-specular bounce on (default 5; refractions
+    /// and reflections on smooth glass do not count); 0 turns it off, so paths run to `max_depth`. Any value gives the same expected image; lower is faster and
     /// noisier per sample.
     pub roulette_depth: Option<u32>,
     /// Constant background radiance, linear RGB (default black).
@@ -75,7 +75,7 @@ pub struct RenderParams {
     pub sampler: String,
     pub camera: Option<String>,
     pub max_depth: u32,
-    /// Russian roulette from this bounce on (0: off). None, from a coordinator that predates the
+    /// Russian roulette from this non-specular bounce on (0: off). None, from a coordinator that predates the
     /// setting, leaves the worker's default.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub roulette_depth: Option<u32>,

@@ -56,7 +56,7 @@ pub struct MitsubaBench {
     /// Render Tessera's side only (e.g. to compare tracer changes quickly).
     #[arg(long)]
     pub skip_mitsuba: bool,
-    /// Tessera's Russian roulette: survive with probability max(β) from this bounce on
+    /// Tessera's Russian roulette: survive with probability max(β·η²) from this non-specular bounce on
     /// (0: roulette off); several, comma-separated, are compared side by side.
     #[arg(long, value_delimiter = ',', default_values_t = [DEFAULT_ROULETTE_DEPTH])]
     pub roulette_depth: Vec<u32>,

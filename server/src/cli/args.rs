@@ -35,7 +35,8 @@ pub struct JobArgs {
     /// Safety cap on bounces per path (Russian roulette ends paths long before).
     #[arg(long, default_value_t = 1024)]
     pub max_depth: u32,
-    /// Russian roulette may end paths from this bounce on (0: off, paths run to --max-depth).
+    /// Russian roulette may end paths from this non-specular bounce on (smooth glass does not
+    /// count; 0: off, paths run to --max-depth).
     /// Lower is faster per sample and noisier; the expected image is the same.
     #[arg(long, default_value_t = tessera_worker::tracer::integrator::DEFAULT_ROULETTE_DEPTH)]
     pub roulette_depth: u32,

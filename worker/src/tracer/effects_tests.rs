@@ -10,6 +10,11 @@ use glam::{Vec3, Vec4};
 /// A box of glass, `t` thick in z around z = −1, 4 m wide, in front of an emitter (radiance 1,
 /// black, facing +z) at z = −3; the camera at the origin looks down −z through it.
 fn slab_scene(glass: Option<Glass>, t: f32) -> Scene {
+    tinted_slab_scene(glass, t, Vec3::ONE)
+}
+
+/// [`slab_scene`] with glass of base colour `tint` (each refraction transmits `tint`).
+fn tinted_slab_scene(glass: Option<Glass>, t: f32, tint: Vec3) -> Scene {
     let mut mesh = Mesh::default();
     let (x, y, z) = (Vec3::X * 2.0, Vec3::Y * 2.0, Vec3::Z * (t / 2.0));
     let c = Vec3::new(0.0, 0.0, -1.0);
@@ -22,7 +27,7 @@ fn slab_scene(glass: Option<Glass>, t: f32) -> Scene {
         quad(&mut mesh, c - y, x, z, 0);
     }
     quad(&mut mesh, Vec3::new(0.0, 0.0, -3.0), x * 2.0, y * 2.0, 1);
-    let glass_material = Material { glass, ..Material::lambert("glass", Vec3::ONE) };
+    let glass_material = Material { glass, ..Material::lambert("glass", tint) };
     let light = Material { emission: Vec3::ONE, ..Material::lambert("light", Vec3::ZERO) };
     let cam = camera_at(Vec3::ZERO, Vec3::NEG_Z, 0.05);
     Scene::new(mesh, vec![glass_material, light], vec![], vec![cam], vec![])
@@ -49,6 +54,36 @@ fn a_glass_slab_transmits_the_fresnel_slab_transmittance_at_normal_incidence() {
     }
     // Without glass the wall is opaque white Lambert facing away from the light: black.
     assert_eq!(head_on(&slab_scene(None, 0.2), Estimator::Mis).0, 0.0);
+}
+
+/// Refraction into glass divides radiance by η² and leaving multiplies it back, so a clear
+/// slab loses a path nothing but its Fresnel reflections. With roulette from the first bounce,
+/// a head-on camera sample through it is exactly 0 (reflected away) or 1 (through), so the sum
+/// of squares equals the sum. Roulette judging β alone (0.44 inside the glass) would end 56 %
+/// of paths there and weight the survivors 2.25: sum of squares ≈ 2.25 × sum.
+#[test]
+fn roulette_does_not_mistake_refraction_for_absorption() {
+    let r = 0.04f64;
+    let scene = slab_scene(Some(clear(false, Vec3::ZERO)), 0.2);
+    let px = render(&scene, &settings(Estimator::Mis, Roulette::Throughput { min_depth: 1 }, 4, Vec3::ZERO), 4096);
+    assert_within_4_sigma("slab with early roulette", pooled(&px), (1.0 - r) / (1.0 + r));
+    let (sum, sum_sq): (f64, f64) = px.iter().fold((0.0, 0.0), |(a, b), p| (a + p.sum[0], b + p.sum_sq[0]));
+    assert!((sum_sq - sum).abs() <= 1e-4 * sum, "samples are not all 0 or 1: Σx² {sum_sq} vs Σx {sum}");
+}
+
+/// Roulette waits for non-specular bounces: through a grey slab (each refraction transmits
+/// 0.5) every path that gets through carries exactly 0.25, however early roulette may start.
+/// Counting the two refractions as bounces would roulette the path at 0.5 and weight the
+/// survivors 2×.
+#[test]
+fn roulette_waits_for_a_non_specular_bounce() {
+    let (r, tint) = (0.04f64, 0.5f64);
+    let scene = tinted_slab_scene(Some(clear(false, Vec3::ZERO)), 0.2, Vec3::splat(tint as f32));
+    let px = render(&scene, &settings(Estimator::Mis, Roulette::Throughput { min_depth: 1 }, 4, Vec3::ZERO), 4096);
+    assert_within_4_sigma("grey slab with early roulette", pooled(&px), tint * tint * (1.0 - r) / (1.0 + r));
+    let (sum, sum_sq): (f64, f64) = px.iter().fold((0.0, 0.0), |(a, b), p| (a + p.sum[0], b + p.sum_sq[0]));
+    let through = tint * tint;
+    assert!((sum_sq - through * sum).abs() <= 1e-4 * sum, "samples are not all 0 or {through}: Σx² {sum_sq} vs Σx {sum}");
 }
 
 #[test]

@@ -36,6 +36,8 @@ pub struct Lobe {
     pub f: Vec3,
     pub pdf: f32,
     pub specular: bool,
+    /// Relative index η' of a refraction (1 for reflection and thin sheets): f carries 1/η'².
+    pub eta: f32,
 }
 
 /// Unpolarised Fresnel reflectance of a dielectric interface; `cos_i` of the incident direction
@@ -122,11 +124,11 @@ impl Dielectric {
         let t = 1.0 - r;
         let reflected = Vec3::new(-wo.x, -wo.y, wo.z);
         if u_lobe < r || t <= 0.0 {
-            return Some(Lobe { wi: reflected, f: Vec3::splat(r / wo.z), pdf: r, specular: true });
+            return Some(Lobe { wi: reflected, f: Vec3::splat(r / wo.z), pdf: r, specular: true, eta: 1.0 });
         }
-        let (wi, scale) = if self.thin { (-wo, 1.0) } else { (refract(wo, Vec3::Z, eta)?, 1.0 / (eta * eta)) };
-        let f = self.tint * (t * scale / wi.z.abs());
-        Some(Lobe { wi, f, pdf: t, specular: true })
+        let (wi, etap) = if self.thin { (-wo, 1.0) } else { (refract(wo, Vec3::Z, eta)?, eta) };
+        let f = self.tint * (t / (etap * etap) / wi.z.abs());
+        Some(Lobe { wi, f, pdf: t, specular: true, eta: etap })
     }
 
     fn sample_rough(&self, wo: Vec3, eta: f32, u_lobe: f32, u: Vec2) -> Option<Lobe> {
@@ -140,7 +142,7 @@ impl Dielectric {
             return None;
         }
         let (f, pdf) = self.rough(wo, wi, eta)?;
-        Some(Lobe { wi, f, pdf, specular: false })
+        Some(Lobe { wi, f, pdf, specular: false, eta: if reflected { 1.0 } else { eta } })
     }
 
     /// f and pdf of the rough interface for wo.z > 0 (pbrt-v4 `DielectricBxDF::f`/`PDF`).

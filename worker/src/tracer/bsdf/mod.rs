@@ -41,6 +41,9 @@ pub struct BsdfSample {
     pub pdf: f32,
     /// A delta direction (smooth glass): MIS and light sampling do not apply.
     pub specular: bool,
+    /// Relative index of refraction η' crossed (1 for reflection and thin glass). `f` divides
+    /// transmitted radiance by η'², which is not an energy loss: roulette undoes it.
+    pub eta: f32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -105,19 +108,19 @@ impl Bsdf {
         }
         let wi = match self {
             // The commonest surface: its f and pdf straight from the lobe, as eval/pdf give them.
-            Bsdf::Lambert(b) => return b.sample_with_values(u).map(|(wi, f, pdf)| BsdfSample { wi, f, pdf, specular: false }),
+            Bsdf::Lambert(b) => return b.sample_with_values(u).map(|(wi, f, pdf)| BsdfSample { wi, f, pdf, specular: false, eta: 1.0 }),
             Bsdf::Phong(b) => b.sample(wo, u_lobe, u),
             Bsdf::Pbr(b) => b.sample(wo, u_lobe, u),
             // The glass lobes carry their own f and pdf (deltas cannot be re-evaluated).
             Bsdf::Dielectric(b) => {
                 let l = b.sample(wo, u_lobe, u)?;
-                return Some(BsdfSample { wi: l.wi, f: l.f, pdf: l.pdf, specular: l.specular });
+                return Some(BsdfSample { wi: l.wi, f: l.f, pdf: l.pdf, specular: l.specular, eta: l.eta });
             }
         }?;
         // Re-evaluating instead of carrying values out of the lobe samplers makes the
         // sample agree exactly with eval/pdf, mixture terms included.
         let (f, pdf) = (self.eval(wo, wi), self.pdf(wo, wi));
-        (pdf > 0.0 && pdf.is_finite() && f.is_finite()).then_some(BsdfSample { wi, f, pdf, specular: false })
+        (pdf > 0.0 && pdf.is_finite() && f.is_finite()).then_some(BsdfSample { wi, f, pdf, specular: false, eta: 1.0 })
     }
 
     /// Uniform hemisphere sampling, for the seed's naive estimator.
@@ -129,6 +132,7 @@ impl Bsdf {
             f,
             pdf: uniform_hemisphere_pdf(),
             specular: false,
+            eta: 1.0,
         })
     }
 
