@@ -10,7 +10,8 @@
 //! | `Light`     | sample one light (emission is counted only through light samples, and on the camera ray), continue by BSDF sampling |
 //! | `Mis`       | both, combined with the power heuristic (the default)                  |
 //!
-//! Russian roulette is unbiased: a path that survives with probability q is divided by q.
+//! Russian roulette ([`Roulette`], its own file) is unbiased: a path that survives with
+//! probability q is divided by q.
 //! Surfaces are black from behind unless their material is double-sided (rays do not pass
 //! through the back of a single-sided triangle; that would leak light into closed rooms).
 //! Glass is always two-sided, and is the only surface rays pass through.
@@ -24,6 +25,7 @@ use crate::tracer::effects::{AllEffects, EffectSet};
 use crate::tracer::light::{LightSet, Target};
 use crate::tracer::ray::{Ray, SHADOW_EPSILON};
 use crate::tracer::ray_log::RayLog;
+pub use crate::tracer::roulette::{DEFAULT_ROULETTE_DEPTH, Roulette};
 use crate::tracer::sampler::Sampler;
 use crate::tracer::sampling::power_heuristic;
 use crate::tracer::scene::{NO_LIGHT, Scene};
@@ -59,41 +61,6 @@ impl FromStr for Estimator {
             .into_iter()
             .find(|e| e.name() == s)
             .ok_or_else(|| format!("unknown estimator {s:?} (expected one of naive, bsdf, light, mis)"))
-    }
-}
-
-/// Russian roulette on the path throughput β.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Roulette {
-    Off,
-    /// The seed's form: once max(β) < `threshold`, stop with probability `p`, else β /= 1 − p.
-    Threshold { threshold: f32, p: f32 },
-    /// From the `min_depth`-th non-specular bounce on, survive with probability max(β·η²)
-    /// (capped at 1), so a surviving path's throughput outside glass never exceeds 1 in any
-    /// channel. Specular bounces (smooth glass) do not count: they neither spread nor lose
-    /// light the way a rough bounce does, and counting them ended the caustic paths that only
-    /// BSDF sampling finds (glass scenes: 2.3–3.2× lower relMSE at equal spp and time;
-    /// docs/performance.md, session 20). `PathSettings::max_depth` still bounds such a chain.
-    Throughput { min_depth: u32 },
-}
-
-/// The (non-specular) bounce from which [`Roulette::default`] may end paths. Five, as in Mitsuba 3: against
-/// three on eleven bundled scenes it lowered relMSE at equal spp everywhere, and relMSE ×
-/// seconds in 19 of 22 cases (up to 2.2× on glass; the other three within run-to-run time
-/// noise, ≤ 9 %). Paths carrying caustics through glass were the ones roulette cut short;
-/// docs/performance.md, session 19.
-pub const DEFAULT_ROULETTE_DEPTH: u32 = 5;
-
-impl Roulette {
-    /// Throughput roulette from bounce `depth` on; 0 turns roulette off.
-    pub fn from_depth(depth: u32) -> Roulette {
-        if depth == 0 { Roulette::Off } else { Roulette::Throughput { min_depth: depth } }
-    }
-}
-
-impl Default for Roulette {
-    fn default() -> Roulette {
-        Roulette::from_depth(DEFAULT_ROULETTE_DEPTH)
     }
 }
 
@@ -219,7 +186,7 @@ impl<'a> Integrator<'a> {
             max_weight = max_weight.max(beta.max_element());
             let d_roulette = sampler.defer_1d();
             rough_bounces += u32::from(!bs.specular);
-            if !survives_roulette(self.settings.roulette, rough_bounces, &mut beta, eta_scale, || sampler.deferred(d_roulette)) {
+            if !self.settings.roulette.survives(rough_bounces, &mut beta, eta_scale, || sampler.deferred(d_roulette)) {
                 break;
             }
         }
@@ -317,35 +284,6 @@ impl<'a> Integrator<'a> {
 /// per metre (channels with σ = 0 keep everything, even over an infinite distance).
 fn transmittance(sigma: Vec3, dist: f32) -> Vec3 {
     Vec3::select(sigma.cmpgt(Vec3::ZERO), (-sigma * dist).exp(), Vec3::ONE)
-}
-
-/// Applies Russian roulette after a path's `rough_bounces`-th non-specular bounce; false when
-/// the path stops. Survivors are reweighted by 1/q.
-/// Decisions look at β·`eta_scale` (pbrt-v4's `etaScale`, Mitsuba's η²): inside glass β is
-/// 1/η² of the light it carries out again, and judging β alone ended ~56 % of paths in a
-/// pane of glass that lost them nothing. `u` is asked for only when the path may stop.
-fn survives_roulette(rr: Roulette, rough_bounces: u32, beta: &mut Vec3, eta_scale: f32, u: impl FnOnce() -> f32) -> bool {
-    let carried = beta.max_element() * eta_scale;
-    let q = match rr {
-        Roulette::Off => return true,
-        Roulette::Threshold { threshold, p } => {
-            if carried >= threshold {
-                return true;
-            }
-            1.0 - p
-        }
-        Roulette::Throughput { min_depth } => {
-            if rough_bounces < min_depth || carried >= 1.0 {
-                return true;
-            }
-            carried
-        }
-    };
-    if !(u() < q) {
-        return false;
-    }
-    *beta /= q;
-    true
 }
 
 #[cfg(test)]

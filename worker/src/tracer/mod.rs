@@ -14,6 +14,7 @@ pub mod normal_map;
 pub mod ray;
 pub mod ray_log;
 pub mod render;
+pub mod roulette;
 pub mod rows;
 pub mod sampler;
 pub mod sampling;
