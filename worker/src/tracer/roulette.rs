@@ -2,7 +2,7 @@
 //!
 //! A path that survives with probability q has its throughput β divided by q, so the expected
 //! image is the same whatever q is; what q decides is where the time goes. Two forms:
-//! - `Threshold { threshold, p }` — the seed's: once β is below `threshold`, stop with
+//! - `Threshold { threshold, p }` — the seed's: once max(β·η²) is below `threshold`, stop with
 //!   probability `p`;
 //! - `Throughput { min_depth }` — the default (pbrt-v4, Mitsuba 3): from the `min_depth`-th
 //!   non-specular bounce on, survive with probability max(β·η²), capped at 1.
@@ -16,7 +16,7 @@ use glam::Vec3;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Roulette {
     Off,
-    /// The seed's form: once max(β) < `threshold`, stop with probability `p`, else β /= 1 − p.
+    /// The seed's form: once max(β·η²) < `threshold`, stop with probability `p`, else β /= 1 − p.
     Threshold { threshold: f32, p: f32 },
     /// From the `min_depth`-th non-specular bounce on, survive with probability max(β·η²)
     /// (capped at 1), so a surviving path's throughput outside glass never exceeds 1 in any
