@@ -1,12 +1,14 @@
 #!/usr/bin/env python3
-"""Render scenes/cornell-box.gltf with Mitsuba 3 and time it: the other side of
+"""Render a bundled scene with Mitsuba 3 and time it: the other side of
 `tessera-bench mitsuba` (issue #9's time-to-quality comparison).
 
-The scene is the one make_cornell_reference.py builds (the same float32
-triangles, albedos, emitter and camera as the glTF; `path` integrator with
-max_depth = -1, box filter). The scene is loaded and one 1-spp render is run
-first, so the LLVM kernels are compiled before the clock starts; then each
-requested render is timed from the call to the pixels being in host memory.
+The scene is read from its glTF by gltf_scene.py (the same float32 triangles,
+normals, materials and camera Tessera loads; `path` integrator, or `volpath`
+for absorbing glass, with max_depth = -1, box filter). A scene it cannot
+translate faithfully exits with status 2 and one line on stderr saying what.
+The scene is loaded and one render is run first, so the LLVM kernels are
+compiled before the clock starts; then each requested render is timed from
+the call to the pixels being in host memory.
 
 Output: one OpenEXR per render (R, G, B float32), and one line per render on
 stdout, which tessera-bench parses:
@@ -19,7 +21,7 @@ Requirements (tools, not project dependencies):
     export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
 
 Usage:
-    python3 tests/reference/mitsuba_render.py --size 256 --spp 64 \
+    python3 tests/reference/mitsuba_render.py --scene cornell-box --size 256 --spp 64 \
         --samplers independent,multijitter --seed 1 --out-dir /tmp/mi
 """
 
@@ -36,11 +38,12 @@ import numpy as np
 sys.dont_write_bytecode = True
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-from make_cornell_reference import build_scene_dict  # noqa: E402
+from gltf_scene import Unsupported, build_scene_dict, scene_path  # noqa: E402
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scene", default="cornell-box", help="a bundled scene's name or a .gltf path")
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--spp", type=int, default=64)
@@ -59,7 +62,11 @@ def main() -> int:
     os.makedirs(args.out_dir, exist_ok=True)
     for name in args.samplers.split(","):
         with tempfile.TemporaryDirectory() as tmp:
-            desc = build_scene_dict(mi, tmp, args.size)
+            try:
+                desc = build_scene_dict(mi, scene_path(args.scene), tmp, args.size)
+            except Unsupported as e:
+                print(f"Mitsuba cannot render {args.scene} as Tessera does: {e}", file=sys.stderr)
+                return 2
             desc["sensor"]["sampler"] = {"type": name, "sample_count": args.spp}
             scene = mi.load_dict(desc)
         # Warm-up: compiles (or loads from Dr.Jit's cache) the kernels this render needs.

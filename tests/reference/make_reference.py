@@ -1,10 +1,9 @@
 #!/usr/bin/env python3
-"""Render the independent Mitsuba 3 reference of scenes/cornell-box.gltf.
+"""Render an independent Mitsuba 3 reference of a bundled scene.
 
-The geometry is NOT read from the .gltf: it is imported from
-scenes/generate.py (cornell_box_objects(), CORNELL_MATERIALS, CORNELL_CAMERA),
-which is the very data the .gltf is written from, so both renderers see the
-same triangles (same float32 vertex values, same winding).
+The scene is read from its .gltf by gltf_scene.py (the same float32 vertex
+values, normals, winding, materials and camera Tessera loads); a scene using
+anything it cannot translate faithfully is refused.
 
 Output: an OpenEXR (float32, ZIP) with channels
     R, G, B                      mean of K independent passes
@@ -17,9 +16,9 @@ For the llvm_ad_rgb variant Dr.Jit needs libLLVM, e.g. on Debian 12:
     export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
 
 Usage:
-    python3 tests/reference/make_cornell_reference.py \
+    python3 tests/reference/make_reference.py [--scene cornell-box] [--flat-shading] \
         [--variant llvm_ad_rgb] [--passes 8] [--spp 16384] [--chunk 1024] \
-        [--size 128] [--out tests/reference/cornell-box-mitsuba.exr]
+        [--size 128] [--out tests/reference/SCENE-mitsuba.exr]
 
 Seeds: chunk j of pass k renders with seed = 1000 * k + j, so every
 mi.render call uses a distinct seed and the K passes are independent.
@@ -29,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import struct
 import sys
 import tempfile
 import time
@@ -37,69 +35,10 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-REPO = os.path.normpath(os.path.join(HERE, "..", ".."))
-sys.dont_write_bytecode = True  # keep scenes/ free of __pycache__
-sys.path.insert(0, os.path.join(REPO, "scenes"))
+sys.dont_write_bytecode = True  # keep the repository free of __pycache__
+sys.path.insert(0, HERE)
 
-import generate  # noqa: E402  (scenes/generate.py)
-
-
-def write_ply(path: str, triangles) -> None:
-    """Binary little-endian PLY, one unshared vertex triple per triangle."""
-    nv = 3 * len(triangles)
-    header = (
-        "ply\nformat binary_little_endian 1.0\n"
-        f"element vertex {nv}\nproperty float x\nproperty float y\nproperty float z\n"
-        f"element face {len(triangles)}\nproperty list uchar int vertex_indices\nend_header\n"
-    ).encode("ascii")
-    body = bytearray()
-    for t in triangles:
-        for p in t:
-            body += struct.pack("<3f", *p)
-    for k in range(len(triangles)):
-        body += struct.pack("<B3i", 3, 3 * k, 3 * k + 1, 3 * k + 2)
-    with open(path, "wb") as fh:
-        fh.write(header + bytes(body))
-
-
-def build_scene_dict(mi, tmpdir: str, size: int) -> dict:
-    cam = generate.CORNELL_CAMERA
-    scene = {
-        "type": "scene",
-        "integrator": {"type": "path", "max_depth": -1},
-        "sensor": {
-            "type": "perspective",
-            "fov_axis": "y",
-            "fov": cam["yfov_deg"],
-            "to_world": mi.ScalarTransform4f().look_at(
-                origin=list(cam["position"]), target=list(cam["target"]), up=list(cam["up"])),
-            "sampler": {"type": "independent", "sample_count": 1},
-            "film": {
-                "type": "hdrfilm",
-                "width": size,
-                "height": size,
-                "rfilter": {"type": "box"},
-                "pixel_format": "rgb",
-                "component_format": "float32",
-            },
-        },
-    }
-    for obj in generate.cornell_box_objects():
-        mat = generate.CORNELL_MATERIALS[obj["material"]]
-        path = os.path.join(tmpdir, obj["name"] + ".ply")
-        write_ply(path, obj["triangles"])
-        shape = {
-            "type": "ply",
-            "filename": path,
-            "face_normals": True,  # flat shading == the glTF's per-face NORMALs
-            "bsdf": {"type": "diffuse",
-                     "reflectance": {"type": "rgb", "value": list(mat["albedo"])}},
-        }
-        if mat["radiance"] is not None:
-            shape["emitter"] = {"type": "area",
-                                "radiance": {"type": "rgb", "value": list(mat["radiance"])}}
-        scene[obj["name"]] = shape
-    return scene
+from gltf_scene import build_scene_dict, scene_path  # noqa: E402
 
 
 def write_exr(path: str, mean: np.ndarray, var: np.ndarray, comment: str) -> None:
@@ -125,14 +64,19 @@ def write_exr(path: str, mean: np.ndarray, var: np.ndarray, comment: str) -> Non
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scene", default="cornell-box", help="a bundled scene's name or a .gltf path")
+    ap.add_argument("--flat-shading", action="store_true",
+                    help="ignore vertex normals (see gltf_scene.build_scene_dict); output SCENE-flat-mitsuba.exr")
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--passes", type=int, default=8, help="K independent passes")
     ap.add_argument("--spp", type=int, default=16384, help="samples per pixel per pass")
     ap.add_argument("--chunk", type=int, default=1024, help="spp per mi.render call")
     ap.add_argument("--size", type=int, default=128)
-    ap.add_argument("--out", default=os.path.join(HERE, "cornell-box-mitsuba.exr"))
+    ap.add_argument("--out", help="default: tests/reference/SCENE-mitsuba.exr")
     args = ap.parse_args()
     assert args.spp % args.chunk == 0, "--spp must be a multiple of --chunk"
+    name = os.path.splitext(os.path.basename(args.scene))[0] + ("-flat" if args.flat_shading else "")
+    args.out = args.out or os.path.join(HERE, f"{name}-mitsuba.exr")
 
     import mitsuba as mi
 
@@ -140,7 +84,8 @@ def main() -> int:
     print(f"mitsuba {mi.__version__}, variant {mi.variant()}", flush=True)
 
     with tempfile.TemporaryDirectory() as tmp:
-        scene = mi.load_dict(build_scene_dict(mi, tmp, args.size))
+        desc = build_scene_dict(mi, scene_path(args.scene), tmp, args.size, flat=args.flat_shading)
+        scene = mi.load_dict(desc)
 
     nchunks = args.spp // args.chunk
     passes = []
@@ -160,7 +105,8 @@ def main() -> int:
     stack = np.stack(passes)  # K x H x W x 3
     mean = stack.mean(axis=0)
     var_of_mean = stack.var(axis=0, ddof=1) / args.passes
-    comment = (f"Mitsuba {mi.__version__} {mi.variant()} path max_depth=-1; K={args.passes} passes x "
+    comment = (f"{name}: Mitsuba {mi.__version__} {mi.variant()} {desc['integrator']['type']} max_depth=-1; "
+               f"K={args.passes} passes x "
                f"{args.spp} spp (total {args.passes * args.spp} spp); seeds 1000*k+j; "
                f"RGB = mean, variance.* = sample variance of passes / K")
     write_exr(args.out, mean, var_of_mean, comment)
