@@ -23,8 +23,8 @@ base64 data URI).  Conventions (see README.md):
 The Cornell-box geometry lives in module-level data (``CORNELL_QUADS_MM``,
 ``cornell_box_objects()``, ``CORNELL_MATERIALS``, ``CORNELL_CAMERA``).
 Mitsuba 3's copies of the scenes (``tests/reference/``) are read from the
-written glTF by ``tests/reference/gltf_scene.py``, so they see exactly the
-same float32 triangles.
+written glTF by ``tests/reference/gltf_scene.py``, so they see the same
+float32 triangles (to within one rounding where a node transform moves them).
 """
 
 from __future__ import annotations

@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """A bundled glTF scene as a Mitsuba 3 scene dict: the independent renderer's view of
-exactly the triangles, normals, materials and camera Tessera loads.
+the triangles, normals, materials and camera Tessera loads. Vertices are the glTF's float32
+values; where a node transform moves them it is applied in double precision and rounded to
+float32 once, so they agree with Tessera's to within that rounding.
 
 What it translates (everything the bundled scenes it is used for need), and what it refuses:
 
@@ -38,7 +40,6 @@ import base64
 import json
 import math
 import os
-import struct
 import sys
 
 import numpy as np
@@ -71,13 +72,15 @@ class Gltf:
     def accessor(self, index: int) -> np.ndarray:
         a = self.doc["accessors"][index]
         view = self.doc["bufferViews"][a["bufferView"]]
+        if "sparse" in a:
+            raise Unsupported(f"sparse accessor {index}")
         code, size = _COMPONENTS[a["componentType"]]
         width = _WIDTH[a["type"]]
         stride = view.get("byteStride", size * width)
         base = view.get("byteOffset", 0) + a.get("byteOffset", 0)
-        data = self.buffers[view["buffer"]]
-        rows = [struct.unpack_from("<%d%s" % (width, code), data, base + i * stride) for i in range(a["count"])]
-        return np.array(rows, dtype=np.float64 if code == "f" else np.int64)
+        rows = np.ndarray((a["count"], width), np.dtype("<" + code), buffer=self.buffers[view["buffer"]],
+                          offset=base, strides=(stride, size))
+        return rows.astype(np.float64 if code == "f" else np.int64)
 
 
 def node_matrix(node: dict) -> np.ndarray:

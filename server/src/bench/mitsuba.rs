@@ -88,6 +88,8 @@ impl Row {
     }
 }
 
+const INSTALL: &str = "pip install mitsuba numpy OpenEXR; apt-get install -y libllvm19; \
+                       export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1";
 /// The script's exit status for a scene it cannot give Mitsuba faithfully.
 const UNTRANSLATABLE_EXIT: i32 = 2;
 
@@ -102,8 +104,6 @@ impl std::fmt::Display for Untranslatable {
 }
 
 impl std::error::Error for Untranslatable {}
-const INSTALL: &str = "pip install mitsuba numpy OpenEXR; apt-get install -y libllvm19; \
-                       export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1";
 
 pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
     anyhow::ensure!(b.size > 0 && b.repeats > 0 && b.reference_spp > 0 && !b.spp.contains(&0), "sizes, spp and repeats must be positive");
