@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Builds the container image: a static `tessera` (glibc, crt-static) copied into FROM scratch.
 # Usage: deploy/build-image.sh [TAG]   (default tessera:latest; prints the tag and the size)
+#        PGO=1 deploy/build-image.sh [TAG]   the binary from deploy/build-pgo.sh --static instead
+#        (renders 15-20 % faster, same bits; needs llvm-profdata, takes two builds and a training run)
 # Works offline on an engine with no images. Re-running reuses the cargo build
 # (target/x86_64-unknown-linux-gnu/release), so it is quick when nothing changed.
 set -euo pipefail
@@ -9,8 +11,12 @@ tag="${1:-tessera:latest}"
 target=x86_64-unknown-linux-gnu
 # RUSTFLAGS with an explicit --target applies to the binary only, not to build scripts and
 # proc macros (which must stay dynamic).
-RUSTFLAGS="-C target-feature=+crt-static" "${CARGO:-cargo}" build --release --target "$target" -p tessera-server --bin tessera
-bin="${CARGO_TARGET_DIR:-target}/$target/release/tessera"
+if [[ "${PGO:-0}" == 1 ]]; then
+    bin=$(deploy/build-pgo.sh --static)
+else
+    RUSTFLAGS="-C target-feature=+crt-static" "${CARGO:-cargo}" build --release --target "$target" -p tessera-server --bin tessera
+    bin="${CARGO_TARGET_DIR:-target}/$target/release/tessera"
+fi
 linkage=$(ldd "$bin" 2>&1 || true)
 if [[ "$linkage" != *"not a dynamic executable"* && "$linkage" != *"statically linked"* ]]; then
     echo "error: $bin is not statically linked: $linkage" >&2

@@ -70,6 +70,10 @@ fn one_worker_three_workers_and_tessera_render_give_the_same_bits() {
     let local = std::fs::read(&local).unwrap();
     assert!(pixels(&one) == pixels(&three), "1 worker vs 3 workers");
     assert!(pixels(&one) == pixels(&local), "farm vs tessera render");
+    // What `tessera render` prints lets a user make the same check without a reader.
+    let printed = String::from_utf8_lossy(&out.stdout);
+    let farm_digest: String = decode_exr(&one).unwrap().0.pixel_digest().iter().map(|b| format!("{b:02x}")).collect();
+    assert!(printed.contains(&format!("pixels sha256: {farm_digest}\n")), "prints the farm image's digest: {printed}");
     assert!(pixels(&one).2.iter().all(|&s| s == 32.0));
 }
 

@@ -19,6 +19,8 @@ fn render_writes_an_exr_with_every_layer_and_a_preview() {
     assert!(stdout.contains("samples/s"), "prints throughput: {stdout}");
     assert!(stdout.contains("scene load + BVH build"), "prints what preparing the scene cost: {stdout}");
     let (img, meta) = decode_exr(&std::fs::read(&exr).unwrap()).unwrap();
+    let digest = tessera_server::output::files_digest(std::slice::from_ref(&exr)).unwrap();
+    assert_eq!(stdout.lines().last(), Some(format!("pixels sha256: {digest}").as_str()), "ends with the pixels' digest");
     assert_eq!((img.width, img.height), (48, 32));
     assert!(img.samples.iter().all(|&s| s == 8.0));
     assert!(img.rgb.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));

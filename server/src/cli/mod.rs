@@ -55,6 +55,16 @@ fn parse() -> Cli {
     Cli::from_arg_matches(&command.get_matches()).unwrap_or_else(|e| e.exit())
 }
 
+/// Prints one line of a command's result. A reader that has gone (`tessera render … | head -1`)
+/// is not an error: it took what it wanted, and the rest has nowhere to go.
+fn say(line: std::fmt::Arguments) -> std::io::Result<()> {
+    use std::io::Write;
+    match writeln!(std::io::stdout().lock(), "{line}") {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => other,
+    }
+}
+
 pub fn main() -> ExitCode {
     let cli = parse();
     let default_level = if matches!(cli.command, Command::Render(_) | Command::Submit(_) | Command::Job(_) | Command::Healthcheck(_) | Command::Bench(_)) { "warn" } else { "info" };

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use tessera_server::bundled;
 use tessera_server::client::Coordinator;
+use tessera_server::output::files_digest;
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -52,7 +53,7 @@ async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> 
     let samples = job.progress.samples_done * (a.job.width as f64 * a.job.height as f64) * job.frames.len().max(1) as f64;
     // What the workers reported for loading the scene and building (or refitting) its BVH.
     let prepare_ms: f64 = job.frames.iter().map(|f| f.prepare_ms).sum();
-    println!(
+    super::say(format_args!(
         "{}: {}x{} at {:.0} spp in {:.2} s ({:.0} samples/s); estimated relMSE {:.3e}; dropped {} non-finite samples; max sample weight {:.3}; effects: {}; scene load + BVH build {:.1} ms",
         files_label(&files),
         a.job.width,
@@ -65,7 +66,9 @@ async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> 
         job.max_sample_weight,
         job.effects.join(", "),
         prepare_ms
-    );
+    ))?;
+    // The pixels alone: equal for any two renders of these settings by one renderer id.
+    super::say(format_args!("pixels sha256: {}", files_digest(&files)?))?;
     Ok(())
 }
 

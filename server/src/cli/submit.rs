@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use tessera_proto::{Job, JobState};
 pub use tessera_server::client::scene_ref;
 use tessera_server::client::{Coordinator, progress_line};
+use tessera_server::output::files_digest;
 
 #[derive(Args)]
 pub struct SubmitArgs {
@@ -37,11 +38,12 @@ pub fn run(a: SubmitArgs) -> anyhow::Result<()> {
         let c = Coordinator::new(&a.server, a.token.clone());
         let scene = scene_ref(&c, &a.scene).await?;
         let job = c.submit(&a.job.request(scene, a.spp)).await?;
-        println!("{}", job.id);
+        super::say(format_args!("{}", job.id))?;
         if a.wait || a.output.is_some() {
             let job = follow(&c, &job.id).await?;
             if let Some(out) = &a.output {
-                download(&c, &job, out).await?;
+                let files = download(&c, &job, out).await?;
+                super::say(format_args!("pixels sha256: {}", files_digest(&files)?))?;
             }
         }
         Ok(())

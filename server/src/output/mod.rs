@@ -32,14 +32,19 @@
 //! [`write_exr`] writes a temp file in the target directory, fsyncs it and
 //! renames it over the target, so readers only ever see a complete file.
 //!
+//! [`ImageLayers::pixel_digest`] and [`files_digest`] hash the pixels alone (not the metadata),
+//! so two renders can be checked to be the same bit for bit.
+//!
 //! [`encode_png_preview`] is a display preview: linear → sRGB at exposure 1
 //! (no auto-exposure, so previews of different renders compare directly),
 //! clamped, NaN/±Inf shown black.
 
+mod digest;
 mod exr;
 mod job_image;
 mod png;
 
+pub use self::digest::files_digest;
 pub use self::exr::{decode_exr, encode_exr, write_exr};
 pub use self::job_image::JobImage;
 pub use self::png::encode_png_preview;
