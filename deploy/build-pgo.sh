@@ -13,7 +13,7 @@
 # `cargo build --release` is left alone. Progress goes to stderr; the binary's path, alone, to stdout.
 #
 # Why: the render loop's branches and calls are laid out and inlined by what the training
-# renders did, not by guesses; on the Cornell box that makes renders 15-20 % faster
+# renders did, not by guesses; on the Cornell box that makes renders 12-20 % faster
 # (docs/performance.md, session 22). Floating-point results do not change (rustc enables no
 # fast-math, and PGO changes no operation), so the build keeps the renderer id and the bits of
 # a plain build. The script checks that: the optimised binary renders every training scene

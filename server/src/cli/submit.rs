@@ -27,7 +27,7 @@ pub struct SubmitArgs {
     /// Wait for the job to end, showing progress.
     #[arg(long)]
     pub wait: bool,
-    /// Download the final EXR here (implies --wait).
+    /// Download the final EXR here (implies --wait) and print its pixels' SHA-256 (equal for any two renders of the same settings by one renderer id).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
 }
