@@ -2,7 +2,7 @@
 # Builds the container image: a static `tessera` (glibc, crt-static) copied into FROM scratch.
 # Usage: deploy/build-image.sh [TAG]   (default tessera:latest; prints the tag and the size)
 #        PGO=1 deploy/build-image.sh [TAG]   the binary from deploy/build-pgo.sh --static instead
-#        (renders 12-20 % faster, same bits; needs llvm-profdata, takes two builds and a training run)
+#        (renders up to 20 % faster, same bits; needs llvm-profdata, takes two builds and a training run)
 # Works offline on an engine with no images. Re-running reuses the cargo build
 # (target/x86_64-unknown-linux-gnu/release), so it is quick when nothing changed.
 set -euo pipefail

@@ -13,11 +13,11 @@
 # `cargo build --release` is left alone. Progress goes to stderr; the binary's path, alone, to stdout.
 #
 # Why: the render loop's branches and calls are laid out and inlined by what the training
-# renders did, not by guesses; on the Cornell box that makes renders 12-20 % faster
-# (docs/performance.md, session 22). Floating-point results do not change (rustc enables no
-# fast-math, and PGO changes no operation), so the build keeps the renderer id and the bits of
-# a plain build. The script checks that: the optimised binary renders every training scene
-# again and must give the instrumented build's pixel digests, or it fails.
+# renders did, not by guesses; that makes the Cornell box render 12-20 % faster and other
+# scenes up to 16 % (docs/performance.md, session 22). Floating-point results do not change
+# (rustc enables no fast-math, and PGO changes no operation), so the build keeps the renderer
+# id and the bits of a plain build. The script checks that: the optimised binary renders every
+# training scene again and must give the instrumented build's pixel digests, or it fails.
 #
 # Needs llvm-profdata of the LLVM that rustc uses (`rustc -vV`, "LLVM version"): from
 # `rustup component add llvm-tools`, or a distribution's package (Debian: llvm-22 for LLVM 22).
