@@ -81,7 +81,7 @@ build "$root/generate" "-C profile-generate=$raw"
 
 # Renders every bundled scene and writes "scene digest" lines to $2.
 render_all() { # binary digests-file
-    local scene out digest
+    local scene out digest args
     : > "$2"
     for scene in scenes/*.gltf; do
         scene=$(basename "$scene" .gltf)

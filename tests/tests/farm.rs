@@ -72,7 +72,7 @@ fn one_worker_three_workers_and_tessera_render_give_the_same_bits() {
     assert!(pixels(&one) == pixels(&local), "farm vs tessera render");
     // What `tessera render` prints lets a user make the same check without a reader.
     let printed = String::from_utf8_lossy(&out.stdout);
-    let farm_digest: String = decode_exr(&one).unwrap().0.pixel_digest().iter().map(|b| format!("{b:02x}")).collect();
+    let farm_digest = hex::encode(decode_exr(&one).unwrap().0.pixel_digest());
     assert!(printed.contains(&format!("pixels sha256: {farm_digest}\n")), "prints the farm image's digest: {printed}");
     assert!(pixels(&one).2.iter().all(|&s| s == 32.0));
 }
