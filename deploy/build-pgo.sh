@@ -71,9 +71,10 @@ bins=(--bin tessera)
 [[ -n "$bench" ]] && bins+=(--bin tessera-bench)
 
 # An explicit --target keeps RUSTFLAGS off build scripts and proc macros: only the shipped code
-# is instrumented and optimised.
+# is instrumented and optimised. TESSERA_BUILD is the build kind benchmarks print beside their
+# figures (tessera-bench's "build:" line); both builds get it, so their sources stay the same.
 build() { # target-dir extra-flags
-    RUSTFLAGS="$flags $2" "$cargo" build --release --target "$host" --target-dir "$1" -p tessera-server "${bins[@]}"
+    TESSERA_BUILD=profile-guided RUSTFLAGS="$flags $2" "$cargo" build --release --target "$host" --target-dir "$1" -p tessera-server "${bins[@]}"
 }
 
 echo "== 1/4 instrumented build (LLVM $llvm_major, $profdata)" >&2

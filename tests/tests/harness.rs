@@ -11,19 +11,27 @@ pub fn repo_root() -> PathBuf {
 /// Path to a freshly built `tessera` binary of the same profile as this test.
 pub fn tessera_bin() -> &'static Path {
     static BIN: OnceLock<PathBuf> = OnceLock::new();
-    BIN.get_or_init(|| {
-        let release = !cfg!(debug_assertions);
-        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let mut cmd = Command::new(cargo);
-        cmd.args(["build", "-q", "-p", "tessera-server", "--bin", "tessera"]).current_dir(repo_root());
-        if release {
-            cmd.arg("--release");
-        }
-        let status = cmd.status().expect("run cargo build");
-        assert!(status.success(), "building tessera failed");
-        let target = std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| repo_root().join("target"));
-        target.join(if release { "release" } else { "debug" }).join("tessera")
-    })
+    BIN.get_or_init(|| built_bin("tessera"))
+}
+
+/// Path to a freshly built `tessera-bench` binary of the same profile as this test.
+pub fn tessera_bench_bin() -> &'static Path {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| built_bin("tessera-bench"))
+}
+
+fn built_bin(name: &str) -> PathBuf {
+    let release = !cfg!(debug_assertions);
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.args(["build", "-q", "-p", "tessera-server", "--bin", name]).current_dir(repo_root());
+    if release {
+        cmd.arg("--release");
+    }
+    let status = cmd.status().expect("run cargo build");
+    assert!(status.success(), "building {name} failed");
+    let target = std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| repo_root().join("target"));
+    target.join(if release { "release" } else { "debug" }).join(name)
 }
 
 pub fn temp_dir(name: &str) -> PathBuf {

@@ -108,3 +108,26 @@ fn a_cpu_without_avx2_or_fma_renders_the_same_bits() {
         assert!(render(None) == render(Some(WITHOUT_FMA)), "{scene}: the image depends on the CPU's libm variants");
     }
 }
+
+/// Runs `command` with its standard output a pipe whose reader is already gone, as in
+/// `tessera render … | head -0`: every line it prints meets a broken pipe.
+fn with_stdout_closed(mut command: Command) -> std::process::Output {
+    let (reader, writer) = std::io::pipe().expect("pipe");
+    drop(reader);
+    command.stdout(writer).output().expect("run")
+}
+
+#[test]
+fn a_reader_that_has_gone_ends_render_and_bench_without_a_panic() {
+    let dir = temp_dir("closed-stdout");
+    let mut render = Command::new(tessera_bin());
+    render.args(["render", "cornell-box", "--spp", "1", "--width", "16", "--height", "16", "-o"]).arg(dir.join("cb.exr"));
+    let mut bench = Command::new(crate::harness::tessera_bench_bin());
+    bench.args(["effects", "--size", "8", "--spp", "1", "--repeats", "1"]);
+    for (name, command) in [("tessera render", render), ("tessera-bench effects", bench)] {
+        let out = with_stdout_closed(command);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success() && !err.contains("panicked"), "{name}: {:?}\n{err}", out.status);
+    }
+    assert!(dir.join("cb.exr").exists(), "the render's file is written before its result lines");
+}

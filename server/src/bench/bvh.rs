@@ -67,7 +67,7 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
         }
     };
     let accel = &scene.accel;
-    println!(
+    crate::say!(
         "{} triangles ({label}): scene (wide BVH, lights, bounds) built in {:.3} s on {} threads",
         scene.mesh.len(),
         build,
@@ -82,7 +82,7 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
     let hits_all: u64 = rays.par_iter().map(trace).sum();
     let all = rays.len() as f64 / t2.elapsed().as_secs_f64();
     anyhow::ensure!(hits_one == hits_all, "single- and multi-threaded traversal disagree");
-    println!(
+    crate::say!(
         "{} incoherent closest-hit rays ({:.0} % hit): {:.2} M rays/s on one core, {:.2} M rays/s on {} threads",
         rays.len(),
         100.0 * hits_one as f64 / rays.len() as f64,
@@ -92,14 +92,14 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
     );
     let (traced, secs) = render_one_core(&scene, b.size, b.spp)?;
     if let Some(kib) = peak_rss_kib() {
-        println!("peak resident memory, the scene built, traced and rendered (what a worker holds, plus the {} MiB of random rays): {:.0} MiB", (rays.len() * size_of::<Ray>()) >> 20, kib as f64 / 1024.0);
+        crate::say!("peak resident memory, the scene built, traced and rendered (what a worker holds, plus the {} MiB of random rays): {:.0} MiB", (rays.len() * size_of::<Ray>()) >> 20, kib as f64 / 1024.0);
     }
     let stock = StockBvh::new(&scene.mesh.positions);
     let (stock_hits, stock_s) = stock.trace(&rays);
     let stock_rate = rays.len() as f64 / stock_s;
-    println!("the same rays through obvhs's own traversal and Möller–Trumbore test: {:.2} M rays/s on one core ({stock_hits} hits); ours is {:.0} % of it", stock_rate / 1e6, 100.0 * one / stock_rate);
+    crate::say!("the same rays through obvhs's own traversal and Möller–Trumbore test: {:.2} M rays/s on one core ({stock_hits} hits); ours is {:.0} % of it", stock_rate / 1e6, 100.0 * one / stock_rate);
     let rendering = traced as f64 / secs;
-    println!(
+    crate::say!(
         "path tracing it ({0}×{0}, {1} spp, mis + Sobol, camera + bounce + shadow rays): {2:.2} M rays/s on one core ({3:.1} rays per sample) = {4:.0} % of our traversal rate above, {5:.0} % of obvhs's",
         b.size,
         b.spp,

@@ -52,12 +52,12 @@ pub fn run(b: &FramesBench) -> anyhow::Result<()> {
             }
         }
     }
-    println!(
+    crate::say!(
         "{} frames of {} at {}×{}, {} spp, {} local workers (1 thread each), fastest of {}:",
         b.frames, b.scene, b.size, b.size, b.spp, b.workers, b.repeats
     );
     for (name, r) in [("affinity on ", on), ("affinity off", off)] {
-        println!(
+        crate::say!(
             "  {name}: {:.2} s ({:.3} s per frame); scene preparations: {} builds + {} refits = {:.1} ms",
             r.seconds,
             r.seconds / b.frames as f64,
@@ -66,7 +66,7 @@ pub fn run(b: &FramesBench) -> anyhow::Result<()> {
             r.prepare_ms
         );
     }
-    println!("  off/on time ratio: {:.3}", off.seconds / on.seconds);
+    crate::say!("  off/on time ratio: {:.3}", off.seconds / on.seconds);
     Ok(())
 }
 

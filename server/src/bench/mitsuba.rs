@@ -113,7 +113,7 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
     let scene = tessera_worker::scene::load_bytes(bytes, None)?;
     let reference = reference::rendered_with(&scene, bytes, name, b.size, b.reference_spp, SamplerKind::Independent, &b.cache)?;
     let mut skip_mitsuba = b.skip_mitsuba;
-    println!(
+    crate::say!(
         "time to quality: {name} {0}×{0}, {1} threads; reference {2} (its noise, relMSE {3:.2e}, subtracted)",
         b.size,
         rayon::current_num_threads(),
@@ -138,7 +138,7 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
                 rows.append(&mut found);
             }
             Err(e) if e.is::<Untranslatable>() => {
-                println!("{e}: measuring Tessera alone");
+                crate::say!("{e}: measuring Tessera alone");
                 skip_mitsuba = true;
             }
             Err(e) => mitsuba_missing = Some(e),
@@ -148,7 +148,7 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
         return Ok(rows);
     }
     if let Some(e) = mitsuba_missing {
-        println!("Mitsuba 3 was not run ({e:#}).\nTo compare, install it: {INSTALL}");
+        crate::say!("Mitsuba 3 was not run ({e:#}).\nTo compare, install it: {INSTALL}");
         return Ok(rows);
     }
     for &spp in &b.spp {
@@ -158,7 +158,7 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
 }
 
 fn print_row(r: &Row) {
-    println!(
+    crate::say!(
         "  {:<8} {:<12} {:>5} spp {:>8.3} s  relMSE {:.3e}  relMSE·s {:.3e}{}",
         r.renderer,
         r.sampler,
@@ -175,7 +175,7 @@ fn print_ratio(rows: &[Row], spp: u32) {
         rows.iter().filter(|r| r.renderer == renderer && r.spp == spp).min_by(|a, b| a.product().total_cmp(&b.product()))
     };
     if let (Some(t), Some(m)) = (best("tessera"), best("mitsuba")) {
-        println!(
+        crate::say!(
             "{spp} spp: tessera {} {:.3e} ÷ mitsuba {} {:.3e} = ratio {:.3} (target ≤ 0.33); time {:.2}×, relMSE {:.2}×",
             t.sampler,
             t.product(),

@@ -4,7 +4,26 @@ pub mod accuracy;
 pub mod bvh;
 pub mod cpu;
 pub mod frames;
+pub mod host;
 pub mod mitsuba;
 pub mod overhead;
 pub mod same_rays;
 pub mod stock;
+
+/// `println!` for a benchmark's figures. A reader that has gone (`tessera-bench … | head -3`)
+/// took what it wanted and the figures still to come have nowhere to go, so the benchmark ends
+/// there, with success, instead of panicking in the middle of a study.
+#[macro_export]
+macro_rules! say {
+    ($($arg:tt)*) => { $crate::bench::say_line(format_args!($($arg)*)) };
+}
+
+#[doc(hidden)]
+pub fn say_line(line: std::fmt::Arguments) {
+    use std::io::Write;
+    match writeln!(std::io::stdout().lock(), "{line}") {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => std::process::exit(0),
+        Err(e) => panic!("failed printing to stdout: {e}"),
+    }
+}

@@ -107,7 +107,7 @@ pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
     // The same pairs against the tracer alone stopping before the EXR (the farm still encodes it).
     let bare: Vec<f64> = alone.iter().zip(&encodes).map(|(a, e)| a - e).collect();
     let ratios: Vec<f64> = bare.iter().zip(&farm).map(|(a, f)| f.total / a).collect();
-    println!(
+    crate::say!(
         "  against the tracer alone stopping before its EXR encode (a median {:.3} s): median per-pair overhead {:+.2} %",
         median(&encodes),
         (median(&ratios) - 1.0) * 100.0
@@ -115,7 +115,7 @@ pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
     // CPU time does not count the time a VM's other tenants take, which blurs wall times.
     let farm_cpu: Vec<f64> = farm.iter().map(|f| f.cpu).collect();
     let ratios: Vec<f64> = alone_cpu.iter().zip(&farm_cpu).map(|(a, f)| f / a).collect();
-    println!(
+    crate::say!(
         "  CPU time of all threads (user + system), medians: alone {:.3} s, farm {:.3} s; median per-pair extra CPU {:+.2} %",
         median(&alone_cpu),
         median(&farm_cpu),
@@ -123,14 +123,14 @@ pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
     );
     // Both shares come from one run, so the VM's drift between runs cancels out of their ratio.
     let shares: Vec<f64> = farm.iter().map(|f| f.other_cpu / f.render_cpu).collect();
-    println!(
+    crate::say!(
         "  within each farm run (per-thread CPU, medians): render threads {:.3} s, every other thread (coordinator, HTTP, the worker's async side, the final EXR) {:.3} s = {:.2} % of the render's CPU",
         median(&farm.iter().map(|f| f.render_cpu).collect::<Vec<_>>()),
         median(&farm.iter().map(|f| f.other_cpu).collect::<Vec<_>>()),
         median(&shares) * 100.0
     );
     let render_vs_alone: Vec<f64> = farm.iter().zip(&alone_cpu).map(|(f, a)| f.render_cpu / a).collect();
-    println!(
+    crate::say!(
         "  the farm's render threads against the whole tracer-alone run, CPU: median per-pair ratio {:+.2} % (the same work; what differs is the threads' surroundings)",
         (median(&render_vs_alone) - 1.0) * 100.0
     );
@@ -145,21 +145,21 @@ fn report(b: &OverheadBench, alone: &[f64], farm: &[FarmRun]) {
     let (fast_a, fast_f) = (min(alone), min(&totals));
     let (med_a, med_f) = (median(alone), median(&totals));
     let samples = f64::from(b.size) * f64::from(b.size) * f64::from(b.spp);
-    println!("overhead: {} {}x{} {} spp, units {TILE}x{TILE}x{}, {n} pairs (alone/farm interleaved)", b.scene, b.size, b.size, b.spp, b.batch_spp);
-    println!("                          fastest     median");
-    println!("  tracer alone           {fast_a:8.3} s {med_a:8.3} s  {:>10.0} samples/s (fastest; incl. merging the units and the EXR encode)", samples / fast_a);
-    println!("  coordinator + 1 worker {fast_f:8.3} s {med_f:8.3} s  {:>10.0} samples/s (fastest; incl. scene load, EXR encode and download)", samples / fast_f);
-    println!("  overhead               {:+7.2} %  {:+7.2} %", pct(fast_f / fast_a), pct(med_f / med_a));
-    println!("  overhead, median of the per-pair ratios {:+6.2} %  (pairs: {})", pct(median(&ratios)), list(&ratios, |r| format!("{:+.1}", pct(r))));
+    crate::say!("overhead: {} {}x{} {} spp, units {TILE}x{TILE}x{}, {n} pairs (alone/farm interleaved)", b.scene, b.size, b.size, b.spp, b.batch_spp);
+    crate::say!("                          fastest     median");
+    crate::say!("  tracer alone           {fast_a:8.3} s {med_a:8.3} s  {:>10.0} samples/s (fastest; incl. merging the units and the EXR encode)", samples / fast_a);
+    crate::say!("  coordinator + 1 worker {fast_f:8.3} s {med_f:8.3} s  {:>10.0} samples/s (fastest; incl. scene load, EXR encode and download)", samples / fast_f);
+    crate::say!("  overhead               {:+7.2} %  {:+7.2} %", pct(fast_f / fast_a), pct(med_f / med_a));
+    crate::say!("  overhead, median of the per-pair ratios {:+6.2} %  (pairs: {})", pct(median(&ratios)), list(&ratios, |r| format!("{:+.1}", pct(r))));
     match median_interval(&ratios) {
-        Some((lo, hi, level)) => println!("  the median's {:.0} % confidence interval (order statistics, no assumption on the noise): {:+.2} % … {:+.2} %", level * 100.0, pct(lo), pct(hi)),
-        None => println!("  (6 or more pairs give a confidence interval for the median)"),
+        Some((lo, hi, level)) => crate::say!("  the median's {:.0} % confidence interval (order statistics, no assumption on the noise): {:+.2} % … {:+.2} %", level * 100.0, pct(lo), pct(hi)),
+        None => crate::say!("  (6 or more pairs give a confidence interval for the median)"),
     }
     // Within-run accounting, medians over the farm runs.
     let med = |f: fn(&FarmRun) -> f64| median(&farm.iter().map(f).collect::<Vec<_>>());
     let idle = med(|f| f.job - f.busy);
     let fixed = med(|f| f.total - f.job);
-    println!("  farm run breakdown (medians): worker idle in the job {:.3} s = {:.2} % of the job; fixed costs (start, EXR, stop) {fixed:.3} s = {:.2} % of the run; render busy {:.3} s vs alone {med_a:.3} s, its EXR included ({:+.2} %)",
+    crate::say!("  farm run breakdown (medians): worker idle in the job {:.3} s = {:.2} % of the job; fixed costs (start, EXR, stop) {fixed:.3} s = {:.2} % of the run; render busy {:.3} s vs alone {med_a:.3} s, its EXR included ({:+.2} %)",
         idle, med(|f| (f.job - f.busy) / f.job) * 100.0, med(|f| (f.total - f.job) / f.total) * 100.0, med(|f| f.busy), pct(med(|f| f.busy) / med_a));
 }
 

@@ -35,7 +35,7 @@ pub fn run(scene: &Scene, stock: &StockBvh, size: u32, spp: u32, rounds: usize) 
         let n = logged.len() as f64;
         all.push(Round { render: n / secs, ours: n / ours_s, stock: n / stock_s });
     }
-    println!(
+    crate::say!(
         "the render's own {} rays ({:.0} % shadow rays) traced alone, {} rounds back to back: ours {} M rays/s ({} hit), obvhs's {} M rays/s ({} hit), the render {} M rays/s",
         logged.len(),
         100.0 * shadow as f64 / logged.len().max(1) as f64,
@@ -46,7 +46,7 @@ pub fn run(scene: &Scene, stock: &StockBvh, size: u32, spp: u32, rounds: usize) 
         hits.1,
         spread(&all, |r| r.render / 1e6),
     );
-    println!(
+    crate::say!(
         "path tracing = {} % of obvhs's rate on its own rays (target ≥ 70 %); tracing is {} % of the render's time",
         spread(&all, |r| 100.0 * r.render / r.stock),
         spread(&all, |r| 100.0 * r.render / r.ours),

@@ -92,7 +92,9 @@ enum Cmd {
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 fn main() -> anyhow::Result<()> {
-    match Cli::parse().cmd {
+    let cmd = Cli::parse().cmd;
+    tessera_server::say!("{}", tessera_server::bench::host::describe());
+    match cmd {
         Cmd::Overhead(b) => tessera_server::bench::overhead::run(&b),
         Cmd::Roundtrips { seconds, workers, tile, separate_leases } => roundtrips(seconds, workers, tile, !separate_leases),
         Cmd::Effects { scene, size, spp, repeats } => effects(&scene, size, spp, repeats),
@@ -119,9 +121,9 @@ fn effects(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Resul
         }
     }
     let samples = size as f64 * size as f64 * spp as f64;
-    println!("effects: {scene_name} {size}x{size} {spp} spp, effects {:?}, gated kernel bits {:#06b}, fastest of {repeats}", scene.effects.names(), gated_bits.0);
+    tessera_server::say!("effects: {scene_name} {size}x{size} {spp} spp, effects {:?}, gated kernel bits {:#06b}, fastest of {repeats}", scene.effects.names(), gated_bits.0);
     for (k, (name, _)) in kernels.iter().enumerate() {
-        println!("  {name:<15} {:8.3} s  {:>10.0} samples/s  {:+6.2} % vs matte", best[k], samples / best[k], (best[k] / best[1] - 1.0) * 100.0);
+        tessera_server::say!("  {name:<15} {:8.3} s  {:>10.0} samples/s  {:+6.2} % vs matte", best[k], samples / best[k], (best[k] / best[1] - 1.0) * 100.0);
     }
     Ok(())
 }
@@ -171,9 +173,9 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool) -
     })?;
     let merge_ns = state.counters.merge_nanos.load(std::sync::atomic::Ordering::Relaxed) as f64;
     let leases = if next_with_result { "the next lease in each result's answer" } else { "a lease request per unit" };
-    println!("roundtrips: {workers} fake workers, {tile}x{tile} tiles, 1 spp units, {leases}, coordinator on one core");
-    println!("  {units} units in {elapsed:.2} s = {:.0} unit round trips/s", units as f64 / elapsed);
-    println!("  merge cost {:.1} µs per unit (decode excluded)", merge_ns / units.max(1) as f64 / 1000.0);
+    tessera_server::say!("roundtrips: {workers} fake workers, {tile}x{tile} tiles, 1 spp units, {leases}, coordinator on one core");
+    tessera_server::say!("  {units} units in {elapsed:.2} s = {:.0} unit round trips/s", units as f64 / elapsed);
+    tessera_server::say!("  merge cost {:.1} µs per unit (decode excluded)", merge_ns / units.max(1) as f64 / 1000.0);
     let _ = std::fs::remove_dir_all(&data);
     Ok(())
 }

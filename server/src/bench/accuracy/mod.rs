@@ -68,7 +68,8 @@ pub struct Options {
     /// Date written in the report (default: today, UTC).
     #[arg(long)]
     pub date: Option<String>,
-    /// Machine description written in the report (default: cores and memory of this one).
+    /// Machine description written in the report (default: this one's CPU model, CPUs, widest
+    /// vectors and memory, from /proc/cpuinfo and /proc/meminfo).
     #[arg(long)]
     pub machine: Option<String>,
 }
