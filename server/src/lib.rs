@@ -8,6 +8,8 @@
 //! - [`client`]: a small client of the coordinator's API.
 //! - [`scheduler`]: the clock-free state machine of jobs, units, leases and workers.
 //! - [`store`], [`persist`]: durable job state (redb + checkpoint files) and resuming from it.
+//! - [`scratch`]: temporary directories of commands that run their own coordinator, removed
+//!   on drop and before a benchmark exits early.
 //! - [`bench`]: benchmark studies (the accuracy study of issue #10) shared by `tessera-bench` and tests.
 //! - [`dashboard`]: the web dashboard at `/` (static files compiled in).
 //! - [`app`], [`routes`], [`state`], [`status`], [`error`], [`scenes`]: the axum coordinator —
@@ -26,6 +28,7 @@ pub mod persist;
 pub mod routes;
 pub mod scenes;
 pub mod scheduler;
+pub mod scratch;
 pub mod state;
 pub mod status;
 pub mod store;

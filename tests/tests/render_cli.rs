@@ -131,3 +131,24 @@ fn a_reader_that_has_gone_ends_render_and_bench_without_a_panic() {
     }
     assert!(dir.join("cb.exr").exists(), "the render's file is written before its result lines");
 }
+
+#[test]
+fn a_bench_whose_reader_goes_mid_study_leaves_no_scratch_dir() {
+    use std::io::BufRead;
+    let mut child = Command::new(crate::harness::tessera_bench_bin())
+        .args(["roundtrips", "--seconds", "0.5", "--workers", "2"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run tessera-bench");
+    // The host line comes before the study's coordinator (and its data directory) starts; the
+    // reader goes after it, as `| head -1` would, so the study's first figure meets a closed pipe.
+    let mut first = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut first).expect("first line");
+    assert!(first.starts_with("host: "), "{first}");
+    let scratch = std::env::temp_dir().join(format!("tessera-bench-rt-{}", child.id()));
+    let out = child.wait_with_output().expect("wait");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && !err.contains("panicked"), "{:?}\n{err}", out.status);
+    assert!(!scratch.exists(), "{} left behind", scratch.display());
+}

@@ -221,14 +221,15 @@ pub fn rel_mse_above_reference(means: impl Iterator<Item = [f64; 3]>, reference:
 
 /// Runs the Mitsuba script at `spp` for every sampler and reads back its images.
 fn mitsuba_rows(reference: &Reference, b: &MitsubaBench, spp: u32) -> anyhow::Result<Vec<Row>> {
-    let out_dir = std::env::temp_dir().join(format!("tessera-bench-mitsuba-{}", std::process::id()));
+    let scratch = crate::scratch::ScratchDir::new("bench-mitsuba");
+    let out_dir = scratch.path();
     let mut cmd = Command::new(&b.python);
     cmd.arg(script_path()?)
         .args(["--scene", &b.scene])
         .args(["--variant", &b.variant, "--size", &b.size.to_string(), "--spp", &spp.to_string()])
         .args(["--samplers", &b.samplers.join(","), "--repeats", &b.repeats.to_string(), "--seed", "1"])
         .arg("--out-dir")
-        .arg(&out_dir);
+        .arg(out_dir);
     if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() {
         let debian = Path::new("/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1");
         if debian.exists() {
@@ -261,7 +262,6 @@ fn mitsuba_rows(reference: &Reference, b: &MitsubaBench, spp: u32) -> anyhow::Re
         }
     }
     rows.iter_mut().for_each(|r| r.rel_mse /= b.repeats as f64);
-    let _ = std::fs::remove_dir_all(&out_dir);
     anyhow::ensure!(!rows.is_empty(), "the Mitsuba script rendered nothing");
     Ok(rows)
 }

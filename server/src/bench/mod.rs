@@ -23,7 +23,11 @@ pub fn say_line(line: std::fmt::Arguments) {
     use std::io::Write;
     match writeln!(std::io::stdout().lock(), "{line}") {
         Ok(()) => {}
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => std::process::exit(0),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+            // `exit` runs no destructors: the study's scratch directories go first.
+            crate::scratch::remove_all();
+            std::process::exit(0)
+        }
         Err(e) => panic!("failed printing to stdout: {e}"),
     }
 }

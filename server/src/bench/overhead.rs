@@ -255,7 +255,7 @@ fn alone_run(scene: &Arc<Scene>, settings: &RenderSettings, b: &OverheadBench) -
 
 /// The same job through a local coordinator + 1 worker (all cores), EXR downloaded.
 fn farm_run(rt: &tokio::runtime::Runtime, b: &OverheadBench, r: u32) -> anyhow::Result<FarmRun> {
-    let data = std::env::temp_dir().join(format!("tessera-bench-{}-{r}", std::process::id()));
+    let scratch = crate::scratch::ScratchDir::new(&format!("bench-{r}"));
     let req = JobRequest {
         scene: b.scene.clone(),
         width: b.size,
@@ -266,7 +266,7 @@ fn farm_run(rt: &tokio::runtime::Runtime, b: &OverheadBench, r: u32) -> anyhow::
         ..JobRequest::default()
     };
     let (t, cpu) = (Instant::now(), cpu_seconds());
-    let (phases, reports) = rt.block_on(with_farm_reports(&data, LocalFarm::default(), |c| async move {
+    let (phases, reports) = rt.block_on(with_farm_reports(scratch.path(), LocalFarm::default(), |c| async move {
         let up = t.elapsed().as_secs_f64();
         let before = threads_cpu();
         let j = c.submit(&req).await?;
@@ -278,7 +278,7 @@ fn farm_run(rt: &tokio::runtime::Runtime, b: &OverheadBench, r: u32) -> anyhow::
     }))?;
     let total = t.elapsed().as_secs_f64();
     let cpu = cpu_seconds() - cpu;
-    let _ = std::fs::remove_dir_all(&data);
+    drop(scratch);
     let report = reports.first().copied().flatten();
     let busy = report.map_or(f64::NAN, |w| w.busy.as_secs_f64());
     let (units, queued_ahead) = report.map_or((0, 0), |w| (w.units_done + w.units_stale + w.units_canceled, w.units_queued_ahead));

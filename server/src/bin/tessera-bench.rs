@@ -129,7 +129,8 @@ fn effects(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Resul
 }
 
 fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool) -> anyhow::Result<()> {
-    let data = std::env::temp_dir().join(format!("tessera-bench-rt-{}", std::process::id()));
+    let scratch = tessera_server::scratch::ScratchDir::new("bench-rt");
+    let data = scratch.path().to_path_buf();
     let state = tessera_server::state::AppState::new(tessera_server::state::Config::new(data.clone()))?;
     let std_listener = std::net::TcpListener::bind("127.0.0.1:0")?;
     std_listener.set_nonblocking(true)?;
@@ -176,7 +177,6 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool) -
     tessera_server::say!("roundtrips: {workers} fake workers, {tile}x{tile} tiles, 1 spp units, {leases}, coordinator on one core");
     tessera_server::say!("  {units} units in {elapsed:.2} s = {:.0} unit round trips/s", units as f64 / elapsed);
     tessera_server::say!("  merge cost {:.1} µs per unit (decode excluded)", merge_ns / units.max(1) as f64 / 1000.0);
-    let _ = std::fs::remove_dir_all(&data);
     Ok(())
 }
 

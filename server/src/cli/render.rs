@@ -33,10 +33,10 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if !Path::new(&a.scene).is_file() && bundled::get(&a.scene).is_none() {
         anyhow::bail!("{:?} is neither a file nor a bundled scene ({})", a.scene, bundled::names().join(", "));
     }
-    let data = std::env::temp_dir().join(format!("tessera-render-{}", std::process::id()));
+    let scratch = tessera_server::scratch::ScratchDir::new("render");
     let rt = tokio::runtime::Runtime::new()?;
-    let result = rt.block_on(tessera_server::local::with_local_farm(&data, a.threads, |c| submit_and_fetch(&a, c)));
-    let _ = std::fs::remove_dir_all(&data);
+    let result = rt.block_on(tessera_server::local::with_local_farm(scratch.path(), a.threads, |c| submit_and_fetch(&a, c)));
+    drop(rt);
     result
 }
 

@@ -69,7 +69,7 @@ pub fn run(options: &FarmOptions, seed: u64) -> anyhow::Result<Vec<FarmRow>> {
 }
 
 fn one_job(rt: &tokio::runtime::Runtime, o: &FarmOptions, seed: u64, workers: usize, threads_each: usize, tile: u32, batch: u32) -> anyhow::Result<FarmRow> {
-    let data = std::env::temp_dir().join(format!("tessera-accuracy-farm-{}-{workers}-{tile}-{batch}", std::process::id()));
+    let scratch = crate::scratch::ScratchDir::new(&format!("accuracy-farm-{workers}-{tile}-{batch}"));
     let req = JobRequest {
         scene: "cornell-box".into(),
         width: o.farm_size,
@@ -82,11 +82,11 @@ fn one_job(rt: &tokio::runtime::Runtime, o: &FarmOptions, seed: u64, workers: us
         ..JobRequest::default()
     };
     let threads = vec![threads_each; workers];
-    let done = rt.block_on(crate::local::with_local_workers(&data, &threads, |c| async move {
+    let done = rt.block_on(crate::local::with_local_workers(scratch.path(), &threads, |c| async move {
         let job = c.submit(&req).await?;
         c.wait(&job.id, |_| {}).await
     }));
-    let _ = std::fs::remove_dir_all(&data);
+    drop(scratch);
     let done = done?;
     anyhow::ensure!(done.state == JobState::Done, "farm job ended {:?}: {}", done.state, done.message.unwrap_or_default());
     let tiles = (o.farm_size.div_ceil(tile) as f64).powi(2);
