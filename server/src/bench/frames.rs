@@ -73,7 +73,6 @@ pub fn run(b: &FramesBench) -> anyhow::Result<()> {
 async fn once(b: &FramesBench, affinity: bool) -> anyhow::Result<FramesRun> {
     let scene = b.scene.clone();
     let scratch = crate::scratch::ScratchDir::new(&format!("bench-frames-{affinity}"));
-    let data = scratch.path();
     let farm = LocalFarm { worker_threads: vec![1; b.workers], frame_affinity: affinity };
     let mut request = JobRequest {
         scene: String::new(),
@@ -85,7 +84,7 @@ async fn once(b: &FramesBench, affinity: bool) -> anyhow::Result<FramesRun> {
         frames: Some(FrameRange { start: 0, end: b.frames.max(1) - 1, step: None, fps: None }),
         ..JobRequest::default()
     };
-    let out = with_farm(data, farm, |c: Coordinator| async move {
+    let out = with_farm(scratch.path(), farm, |c: Coordinator| async move {
         let t0 = Instant::now();
         request.scene = crate::client::scene_ref(&c, &scene).await?;
         let job = c.submit(&request).await?;
@@ -94,7 +93,6 @@ async fn once(b: &FramesBench, affinity: bool) -> anyhow::Result<FramesRun> {
         Ok((t0.elapsed().as_secs_f64(), job))
     })
     .await;
-    drop(scratch);
     let (seconds, job) = out?;
     Ok(FramesRun {
         seconds,

@@ -278,7 +278,6 @@ fn farm_run(rt: &tokio::runtime::Runtime, b: &OverheadBench, r: u32) -> anyhow::
     }))?;
     let total = t.elapsed().as_secs_f64();
     let cpu = cpu_seconds() - cpu;
-    drop(scratch);
     let report = reports.first().copied().flatten();
     let busy = report.map_or(f64::NAN, |w| w.busy.as_secs_f64());
     let (units, queued_ahead) = report.map_or((0, 0), |w| (w.units_done + w.units_stale + w.units_canceled, w.units_queued_ahead));

@@ -130,8 +130,7 @@ fn effects(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Resul
 
 fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool) -> anyhow::Result<()> {
     let scratch = tessera_server::scratch::ScratchDir::new("bench-rt");
-    let data = scratch.path().to_path_buf();
-    let state = tessera_server::state::AppState::new(tessera_server::state::Config::new(data.clone()))?;
+    let state = tessera_server::state::AppState::new(tessera_server::state::Config::new(scratch.path().to_path_buf()))?;
     let std_listener = std::net::TcpListener::bind("127.0.0.1:0")?;
     std_listener.set_nonblocking(true)?;
     let url = format!("http://{}", std_listener.local_addr()?);

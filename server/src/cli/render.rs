@@ -35,9 +35,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     }
     let scratch = tessera_server::scratch::ScratchDir::new("render");
     let rt = tokio::runtime::Runtime::new()?;
-    let result = rt.block_on(tessera_server::local::with_local_farm(scratch.path(), a.threads, |c| submit_and_fetch(&a, c)));
-    drop(rt);
-    result
+    rt.block_on(tessera_server::local::with_local_farm(scratch.path(), a.threads, |c| submit_and_fetch(&a, c)))
 }
 
 async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> {

@@ -86,7 +86,6 @@ fn one_job(rt: &tokio::runtime::Runtime, o: &FarmOptions, seed: u64, workers: us
         let job = c.submit(&req).await?;
         c.wait(&job.id, |_| {}).await
     }));
-    drop(scratch);
     let done = done?;
     anyhow::ensure!(done.state == JobState::Done, "farm job ended {:?}: {}", done.state, done.message.unwrap_or_default());
     let tiles = (o.farm_size.div_ceil(tile) as f64).powi(2);
