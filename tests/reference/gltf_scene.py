@@ -18,9 +18,12 @@ What it translates (everything the bundled scenes it is used for need), and what
     inside absorbs by Beer-Lambert: sigma_t = -ln(attenuationColor) / attenuationDistance with
     albedo 0, a `homogeneous` interior medium (the scene then needs `volpath`, which
     `build_scene_dict` chooses). Without it, thin glass (`thindielectric`).
+  - pure metal: metallic 1, no textures, no transmission -> `gltf_metal` (gltf_metal.py: glTF's
+    Schlick-GGX metal with height-correlated Smith shadowing, which no Mitsuba built-in has),
+    F0 = the base colour, alpha = roughness squared;
   - emission: `emissiveFactor` x `KHR_materials_emissive_strength` -> a one-sided `area`
     emitter (two-sided materials are refused: Mitsuba's area lights emit on one side).
-  Anything else (textures, rough glass, metals, Phong, punctual lights, a thin lens) raises
+  Anything else (textures, rough glass, partly metallic surfaces, Phong, punctual lights, a thin lens) raises
   `Unsupported` naming the scene element, so a comparison is never made against a different
   scene.
 * Camera: the first perspective camera node; glTF looks down -Z with +Y up, Mitsuba's
@@ -43,6 +46,10 @@ import os
 import sys
 
 import numpy as np
+
+sys.dont_write_bytecode = True
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import gltf_metal  # noqa: E402
 
 
 class Unsupported(ValueError):
@@ -132,9 +139,12 @@ def bsdf_of(mat: dict, name: str) -> tuple[dict, dict | None]:
     base = pbr.get("baseColorFactor", [1.0, 1.0, 1.0, 1.0])[:3]
     if "baseColorTexture" in pbr or "normalTexture" in mat or "emissiveTexture" in mat:
         raise Unsupported(f"material {name!r}: textures")
-    if pbr.get("metallicFactor", 1.0) != 0.0:
-        raise Unsupported(f"material {name!r}: metallic {pbr.get('metallicFactor', 1.0)}")
     transmission = ext.get("KHR_materials_transmission", {}).get("transmissionFactor", 0.0)
+    metallic = pbr.get("metallicFactor", 1.0)
+    if metallic == 1.0 and transmission == 0.0 and "metallicRoughnessTexture" not in pbr:
+        return {"type": "gltf_metal", "base_color": base, "alpha": pbr.get("roughnessFactor", 1.0) ** 2}, None
+    if metallic != 0.0:
+        raise Unsupported(f"material {name!r}: metallic {metallic} (only 0 and 1 translate)")
     if transmission == 0.0:
         if ext.get("KHR_materials_specular", {}).get("specularFactor", 1.0) != 0.0:
             raise Unsupported(f"material {name!r}: a specular layer (only matte surfaces translate)")
@@ -191,7 +201,7 @@ def shapes(g: Gltf, tmpdir: str, flat: bool) -> dict:
             mat = g.doc["materials"][mat_index]
             name = mat.get("name", str(mat_index))
             bsdf, medium = bsdf_of(mat, name)
-            key = f"{node.get('name', 'node')}_{k}"
+            key = f"{node.get('name', 'node')}_{k}".replace(".", "_")  # Mitsuba reserves "."
             path = os.path.join(tmpdir, key + ".ply")
             write_ply(path, pos, nrm, idx)
             shape = {"type": "ply", "filename": path, "bsdf": bsdf, "face_normals": nrm is None}
@@ -240,6 +250,8 @@ def build_scene_dict(mi, gltf_path: str, tmpdir: str, size: int, flat: bool = Fa
     if g.doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights"):
         raise Unsupported("punctual lights")
     body = shapes(g, tmpdir, flat)
+    if any(s["bsdf"]["type"] == "gltf_metal" for s in body.values()):
+        gltf_metal.register()
     media = any("interior" in s for s in body.values())
     integrator = {"type": "volpath" if media else "path", "max_depth": -1}
     return {"type": "scene", "integrator": integrator, "sensor": sensor(g, mi, size), **body}
