@@ -15,6 +15,7 @@ use crate::bench::overhead::settings;
 use glam::{Mat4, Vec3};
 use rayon::prelude::*;
 use std::f32::consts::PI;
+use std::path::PathBuf;
 use std::time::Instant;
 use tessera_worker::tracer::camera::Camera;
 use tessera_worker::tracer::material::Material;
@@ -45,6 +46,11 @@ pub struct BvhBench {
     /// that the machine's drift touches all three alike; the median round is reported.
     #[arg(long, default_value_t = 5)]
     pub rounds: usize,
+    /// Also write the render's own rays to this file, for another renderer's traversal to trace
+    /// (`tests/reference/embree_rays.py`): per ray, 8 little-endian f32: origin, direction,
+    /// t_max (in units of the direction), and 0 for a closest-hit or 1 for a shadow ray.
+    #[arg(long)]
+    pub save_rays: Option<PathBuf>,
 }
 
 pub fn run(b: &BvhBench) -> anyhow::Result<()> {
@@ -109,7 +115,7 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
         100.0 * rendering / stock_rate
     );
     drop(rays);
-    same_rays::run(&scene, &stock, b.size, b.spp, b.rounds)
+    same_rays::run(&scene, &stock, b, b.save_rays.as_deref())
 }
 
 /// Renders the whole frame on a pool of one thread; returns the rays traced and the seconds.

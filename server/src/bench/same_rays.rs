@@ -7,10 +7,11 @@
 //! The machine drifts by ±15 % within minutes, more than the differences measured, so the three
 //! timings run back to back in rounds and each round gives its own ratios; the median round
 //! and the range are printed.
-use crate::bench::bvh::render_one_core;
+use crate::bench::bvh::{BvhBench, render_one_core};
 use crate::bench::overhead::settings;
 use crate::bench::stock::{StockBvh, ours_logged};
 use tessera_worker::tracer::ray_log::{LoggedRay, RayLog, RayQuery};
+use std::path::Path;
 use tessera_worker::tracer::{Scene, render_tile_logged};
 
 /// One round's rates, in rays per second on one core.
@@ -21,8 +22,13 @@ struct Round {
     stock: f64,
 }
 
-pub fn run(scene: &Scene, stock: &StockBvh, size: u32, spp: u32, rounds: usize) -> anyhow::Result<()> {
+pub fn run(scene: &Scene, stock: &StockBvh, b: &BvhBench, save: Option<&Path>) -> anyhow::Result<()> {
+    let (size, spp, rounds) = (b.size, b.spp, b.rounds);
     let logged = log_rays(scene, size, spp)?;
+    if let Some(path) = save {
+        write_rays(path, &logged)?;
+        crate::say!("wrote the render's {} rays to {}", logged.len(), path.display());
+    }
     let shadow = logged.iter().filter(|r| r.query == RayQuery::Occluded).count();
     let mut hits = (0, 0);
     let mut all = Vec::with_capacity(rounds);
@@ -69,4 +75,42 @@ fn log_rays(scene: &Scene, size: u32, spp: u32) -> anyhow::Result<Vec<LoggedRay>
     let log = RayLog::new();
     pool.install(|| render_tile_logged(scene, &settings, settings.full_frame(), 0..spp, &log)).map_err(anyhow::Error::msg)?;
     Ok(log.take())
+}
+
+/// The `--save-rays` file: 8 little-endian f32 per ray (see [`BvhBench::save_rays`]).
+fn write_rays(path: &Path, rays: &[LoggedRay]) -> anyhow::Result<()> {
+    let mut bytes = Vec::with_capacity(rays.len() * 32);
+    for r in rays {
+        let kind = match r.query {
+            RayQuery::Closest => 0.0f32,
+            RayQuery::Occluded => 1.0,
+        };
+        for v in [r.ray.origin.to_array(), r.ray.dir.to_array()].concat().into_iter().chain([r.t_max, kind]) {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::write(path, bytes).map_err(|e| anyhow::anyhow!("cannot write rays to {}: {e}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use tessera_worker::tracer::ray::Ray;
+
+    #[test]
+    fn saved_rays_are_eight_little_endian_floats_each_in_order() {
+        let rays = [
+            LoggedRay { ray: Ray::new(Vec3::new(1.0, 2.0, 3.0), Vec3::new(0.0, -1.0, 0.5)), t_max: f32::INFINITY, query: RayQuery::Closest },
+            LoggedRay { ray: Ray::new(Vec3::new(-4.0, 0.25, 9.0), Vec3::new(2.0, 0.0, -3.0)), t_max: 0.999, query: RayQuery::Occluded },
+        ];
+        let dir = crate::scratch::ScratchDir::new("saved-rays");
+        std::fs::create_dir_all(dir.path()).unwrap();
+        let path = dir.path().join("rays.bin");
+        write_rays(&path, &rays).unwrap();
+        let floats: Vec<f32> = std::fs::read(&path).unwrap().chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().unwrap())).collect();
+        assert_eq!(floats, [1.0, 2.0, 3.0, 0.0, -1.0, 0.5, f32::INFINITY, 0.0, -4.0, 0.25, 9.0, 2.0, 0.0, -3.0, 0.999, 1.0]);
+        let err = write_rays(&dir.path().join("no-such-dir/rays.bin"), &rays).unwrap_err();
+        assert!(err.to_string().starts_with("cannot write rays to "), "{err}");
+    }
 }
