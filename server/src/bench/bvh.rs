@@ -5,7 +5,9 @@
 //! (issue #9: rendering should keep ≥ 70 % of the traversal rate, i.e. shading and sampling cost
 //! less than tracing), and the process's peak resident memory. Last, the render's own rays
 //! (logged by a second render) are traced alone through both BVHs: the fair comparison, since
-//! random rays are not the rays a path tracer traces (see [`crate::bench::stock`]).
+//! random rays are not the rays a path tracer traces (see [`crate::bench::stock`]); for a glTF
+//! scene, where Mitsuba 3 is installed, also through its traversal, Embree
+//! ([`crate::bench::embree`]).
 //!
 //! The field is generated here (no mesh file is shipped): `spheres`² spheres on a grid, each a
 //! UV sphere of `segments` × `segments / 2` quads whose radius wobbles by ±15 %
@@ -51,6 +53,10 @@ pub struct BvhBench {
     /// t_max (in units of the direction), and 0 for a closest-hit or 1 for a shadow ray.
     #[arg(long)]
     pub save_rays: Option<PathBuf>,
+    /// Python interpreter with the `mitsuba` package, to trace the render's rays through
+    /// Mitsuba's traversal (Embree) too; a bundled scene or glTF only.
+    #[arg(long, default_value = "python3")]
+    pub python: String,
 }
 
 pub fn run(b: &BvhBench) -> anyhow::Result<()> {

@@ -223,19 +223,12 @@ pub fn rel_mse_above_reference(means: impl Iterator<Item = [f64; 3]>, reference:
 fn mitsuba_rows(reference: &Reference, b: &MitsubaBench, spp: u32) -> anyhow::Result<Vec<Row>> {
     let scratch = crate::scratch::ScratchDir::new("bench-mitsuba");
     let out_dir = scratch.path();
-    let mut cmd = Command::new(&b.python);
-    cmd.arg(script_path()?)
-        .args(["--scene", &b.scene])
+    let mut cmd = python_script(&b.python, "mitsuba_render.py")?;
+    cmd.args(["--scene", &b.scene])
         .args(["--variant", &b.variant, "--size", &b.size.to_string(), "--spp", &spp.to_string()])
         .args(["--samplers", &b.samplers.join(","), "--repeats", &b.repeats.to_string(), "--seed", "1"])
         .arg("--out-dir")
         .arg(out_dir);
-    if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() {
-        let debian = Path::new("/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1");
-        if debian.exists() {
-            cmd.env("DRJIT_LIBLLVM_PATH", debian);
-        }
-    }
     let output = cmd.output().map_err(|e| anyhow::anyhow!("cannot start {}: {e}", b.python))?;
     let stdout = String::from_utf8_lossy(&output.stdout);
     if !output.status.success() {
@@ -266,11 +259,25 @@ fn mitsuba_rows(reference: &Reference, b: &MitsubaBench, spp: u32) -> anyhow::Re
     Ok(rows)
 }
 
-/// The script ships in the repository; found from the working directory or the build's source.
-fn script_path() -> anyhow::Result<PathBuf> {
-    let rel = Path::new("tests/reference/mitsuba_render.py");
-    let from_build = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel);
-    [rel.to_path_buf(), from_build]
+/// `python` running `tests/reference/<script>`, with Dr.Jit pointed at Debian's LLVM 19 unless
+/// the environment already says where LLVM is.
+pub(crate) fn python_script(python: &str, script: &str) -> anyhow::Result<Command> {
+    let mut cmd = Command::new(python);
+    cmd.arg(script_path(script)?);
+    if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() {
+        let debian = Path::new("/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1");
+        if debian.exists() {
+            cmd.env("DRJIT_LIBLLVM_PATH", debian);
+        }
+    }
+    Ok(cmd)
+}
+
+/// The scripts ship in the repository; found from the working directory or the build's source.
+fn script_path(script: &str) -> anyhow::Result<PathBuf> {
+    let rel = Path::new("tests/reference").join(script);
+    let from_build = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(&rel);
+    [rel.clone(), from_build]
         .into_iter()
         .find(|p| p.exists())
         .ok_or_else(|| anyhow::anyhow!("{} not found (run from the repository)", rel.display()))

@@ -3,6 +3,7 @@
 pub mod accuracy;
 pub mod bvh;
 pub mod cpu;
+pub mod embree;
 pub mod frames;
 pub mod host;
 pub mod mitsuba;

@@ -57,7 +57,33 @@ pub fn run(scene: &Scene, stock: &StockBvh, b: &BvhBench, save: Option<&Path>) -
         spread(&all, |r| 100.0 * r.render / r.stock),
         spread(&all, |r| 100.0 * r.render / r.ours),
     );
+    say_embree(b, &logged, median(&all, |r| r.ours));
     Ok(())
+}
+
+/// The same rays through Mitsuba's traversal (Embree), when the scene is a glTF and Mitsuba is
+/// installed; otherwise why not.
+fn say_embree(b: &BvhBench, logged: &[LoggedRay], ours: f64) {
+    let Some(scene) = &b.scene else {
+        crate::say!("Mitsuba's traversal (Embree) not measured: the generated field is not a glTF (try --scene)");
+        return;
+    };
+    match crate::bench::embree::trace(&b.python, scene, logged) {
+        Ok(e) => crate::say!(
+            "the same rays through Mitsuba's traversal (Embree, one core): {:.2} M rays/s ({} hit); ours is {:.0} % of it",
+            e.rays_per_s / 1e6,
+            e.hits,
+            100.0 * ours / e.rays_per_s
+        ),
+        Err(e) => crate::say!("Mitsuba's traversal (Embree) not measured: {e:#}"),
+    }
+}
+
+/// The median round's figure.
+fn median(rounds: &[Round], figure: impl Fn(&Round) -> f64) -> f64 {
+    let mut v: Vec<f64> = rounds.iter().map(figure).collect();
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
 }
 
 /// "median (min–max)" of a figure over the rounds.
@@ -78,7 +104,7 @@ fn log_rays(scene: &Scene, size: u32, spp: u32) -> anyhow::Result<Vec<LoggedRay>
 }
 
 /// The `--save-rays` file: 8 little-endian f32 per ray (see [`BvhBench::save_rays`]).
-fn write_rays(path: &Path, rays: &[LoggedRay]) -> anyhow::Result<()> {
+pub(crate) fn write_rays(path: &Path, rays: &[LoggedRay]) -> anyhow::Result<()> {
     let mut bytes = Vec::with_capacity(rays.len() * 32);
     for r in rays {
         let kind = match r.query {
