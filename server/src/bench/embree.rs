@@ -18,6 +18,9 @@ pub struct EmbreeRate {
     pub rays: u64,
     pub hits: u64,
     pub rays_per_s: f64,
+    /// The closest-hit rays' and the shadow rays' own rates (None: no such rays).
+    pub closest_per_s: Option<f64>,
+    pub shadow_per_s: Option<f64>,
 }
 
 /// Traces `rays` of the bundled scene (or glTF path) `scene` through Mitsuba's Embree.
@@ -39,16 +42,26 @@ pub fn trace(python: &str, scene: &str, rays: &[LoggedRay]) -> anyhow::Result<Em
     parse_total(&String::from_utf8_lossy(&output.stdout))
 }
 
-/// Reads the script's last line: `… all N rays, H hit, R M rays/s`.
+/// Reads the script's lines `closest-hit: …`, `shadow: …` and, last, `… all N rays, H hit,
+/// R M rays/s`.
 fn parse_total(stdout: &str) -> anyhow::Result<EmbreeRate> {
     let line = stdout.lines().rev().find(|l| l.contains(" all ")).ok_or_else(|| anyhow::anyhow!("the Embree script printed no total"))?;
+    let kind = |prefix: &str| stdout.lines().find(|l| l.starts_with(prefix)).map(|l| number_before(l, "M")).transpose();
+    Ok(EmbreeRate {
+        rays: number_before(line, "rays")? as u64,
+        hits: number_before(line, "hit")? as u64,
+        rays_per_s: number_before(line, "M")? * 1e6,
+        closest_per_s: kind("closest-hit:")?.map(|r| r * 1e6),
+        shadow_per_s: kind("shadow:")?.map(|r| r * 1e6),
+    })
+}
+
+/// The number just before the first word `word` (a trailing comma ignored) in `line`.
+fn number_before(line: &str, word: &str) -> anyhow::Result<f64> {
     let words: Vec<&str> = line.split_whitespace().collect();
-    let before = |word: &str| -> anyhow::Result<f64> {
-        let i = words.iter().position(|w| w.trim_end_matches(',') == word).ok_or_else(|| anyhow::anyhow!("no {word:?} in {line:?}"))?;
-        let number = words.get(i.wrapping_sub(1)).ok_or_else(|| anyhow::anyhow!("no number before {word:?} in {line:?}"))?;
-        number.parse().map_err(|_| anyhow::anyhow!("{number:?} is not a number in {line:?}"))
-    };
-    Ok(EmbreeRate { rays: before("rays")? as u64, hits: before("hit")? as u64, rays_per_s: before("M")? * 1e6 })
+    let i = words.iter().position(|w| w.trim_end_matches(',') == word).ok_or_else(|| anyhow::anyhow!("no {word:?} in {line:?}"))?;
+    let number = words.get(i.wrapping_sub(1)).ok_or_else(|| anyhow::anyhow!("no number before {word:?} in {line:?}"))?;
+    number.parse().map_err(|_| anyhow::anyhow!("{number:?} is not a number in {line:?}"))
 }
 
 #[cfg(test)]
@@ -63,7 +76,8 @@ mod tests {
     fn the_scripts_total_line_is_read() {
         let out = "closest-hit: 10 rays, 8 hit, 17.43 M rays/s (median of 5 rounds, 1 thread)\n\
                    mitsuba 3.9.1 llvm_ad_rgb (Embree: True): all 1598232 rays, 919386 hit, 20.30 M rays/s\n";
-        assert_eq!(parse_total(out).unwrap(), EmbreeRate { rays: 1_598_232, hits: 919_386, rays_per_s: 20.30e6 });
+        let rate = EmbreeRate { rays: 1_598_232, hits: 919_386, rays_per_s: 20.30e6, closest_per_s: Some(17.43e6), shadow_per_s: None };
+        assert_eq!(parse_total(out).unwrap(), rate);
         assert!(parse_total("closest-hit: 10 rays\n").is_err(), "no total line");
         assert!(parse_total("mitsuba: all x rays, 3 hit, 1 M rays/s").unwrap_err().to_string().contains("\"x\" is not a number"));
     }
@@ -83,7 +97,7 @@ mod tests {
         let answers = fake("python-ok", r#"n=$(( $(wc -c < "$6") / 32 )); echo "mitsuba 3.9.1 llvm_ad_rgb (Embree: True): all $n rays, 1 hit, 2.50 M rays/s""#);
         let ray = LoggedRay { ray: Ray::new(Vec3::ZERO, Vec3::X), t_max: 1.0, query: RayQuery::Occluded };
         let rate = trace(&answers, "cornell-box", &[ray; 3]).unwrap();
-        assert_eq!(rate, EmbreeRate { rays: 3, hits: 1, rays_per_s: 2.5e6 });
+        assert_eq!(rate, EmbreeRate { rays: 3, hits: 1, rays_per_s: 2.5e6, closest_per_s: None, shadow_per_s: None });
         let fails = fake("python-fails", "echo 'ModuleNotFoundError: No module named mitsuba' >&2; exit 1");
         let err = trace(&fails, "cornell-box", &[ray]).unwrap_err().to_string();
         assert!(err.starts_with("ModuleNotFoundError: No module named mitsuba (needs `pip install mitsuba"), "{err}");

@@ -20,6 +20,9 @@ struct Round {
     render: f64,
     ours: f64,
     stock: f64,
+    /// Ours on the closest-hit rays alone and on the shadow rays alone, as Embree is timed.
+    ours_closest: f64,
+    ours_shadow: f64,
 }
 
 pub fn run(scene: &Scene, stock: &StockBvh, b: &BvhBench, save: Option<&Path>) -> anyhow::Result<()> {
@@ -29,7 +32,8 @@ pub fn run(scene: &Scene, stock: &StockBvh, b: &BvhBench, save: Option<&Path>) -
         write_rays(path, &logged)?;
         crate::say!("wrote the render's {} rays to {}", logged.len(), path.display());
     }
-    let shadow = logged.iter().filter(|r| r.query == RayQuery::Occluded).count();
+    let (shadows, closests): (Vec<LoggedRay>, Vec<LoggedRay>) = logged.iter().partition(|r| r.query == RayQuery::Occluded);
+    let shadow = shadows.len();
     let mut hits = (0, 0);
     let mut all = Vec::with_capacity(rounds);
     for _ in 0..rounds.max(1) {
@@ -39,7 +43,8 @@ pub fn run(scene: &Scene, stock: &StockBvh, b: &BvhBench, save: Option<&Path>) -
         let (stock_hits, stock_s) = stock.trace_logged(&logged);
         hits = (ours_hits, stock_hits);
         let n = logged.len() as f64;
-        all.push(Round { render: n / secs, ours: n / ours_s, stock: n / stock_s });
+        let rate = |rays: &[LoggedRay]| rays.len() as f64 / ours_logged(&scene.accel, rays).1;
+        all.push(Round { render: n / secs, ours: n / ours_s, stock: n / stock_s, ours_closest: rate(&closests), ours_shadow: rate(&shadows) });
     }
     crate::say!(
         "the render's own {} rays ({:.0} % shadow rays) traced alone, {} rounds back to back: ours {} M rays/s ({} hit), obvhs's {} M rays/s ({} hit), the render {} M rays/s",
@@ -57,25 +62,35 @@ pub fn run(scene: &Scene, stock: &StockBvh, b: &BvhBench, save: Option<&Path>) -
         spread(&all, |r| 100.0 * r.render / r.stock),
         spread(&all, |r| 100.0 * r.render / r.ours),
     );
-    say_embree(b, &logged, median(&all, |r| r.ours));
+    say_embree(b, &logged, &all);
     Ok(())
 }
 
 /// The same rays through Mitsuba's traversal (Embree), when the scene is a glTF and Mitsuba is
 /// installed; otherwise why not.
-fn say_embree(b: &BvhBench, logged: &[LoggedRay], ours: f64) {
+fn say_embree(b: &BvhBench, logged: &[LoggedRay], rounds: &[Round]) {
     let Some(scene) = &b.scene else {
         crate::say!("Mitsuba's traversal (Embree) not measured: the generated field is not a glTF (try --scene)");
         return;
     };
     match crate::bench::embree::trace(&b.python, scene, logged) {
         Ok(e) => crate::say!(
-            "the same rays through Mitsuba's traversal (Embree, one core): {:.2} M rays/s ({} hit); ours is {:.0} % of it",
+            "the same rays through Mitsuba's traversal (Embree, one core): {:.2} M rays/s ({} hit); ours is {:.0} % of it (closest-hit rays: {}, shadow rays: {})",
             e.rays_per_s / 1e6,
             e.hits,
-            100.0 * ours / e.rays_per_s
+            100.0 * median(rounds, |r| r.ours) / e.rays_per_s,
+            share(median(rounds, |r| r.ours_closest), e.closest_per_s),
+            share(median(rounds, |r| r.ours_shadow), e.shadow_per_s),
         ),
         Err(e) => crate::say!("Mitsuba's traversal (Embree) not measured: {e:#}"),
+    }
+}
+
+/// "ours X against Embree's Y M rays/s" for one kind of ray, or "none" when there were none.
+fn share(ours: f64, embree: Option<f64>) -> String {
+    match embree {
+        Some(e) if ours.is_finite() => format!("ours {:.2} against {:.2} M rays/s, {:.0} %", ours / 1e6, e / 1e6, 100.0 * ours / e),
+        _ => "none".into(),
     }
 }
 
