@@ -21,9 +21,10 @@ What it translates (everything the bundled scenes it is used for need), and what
   - pure metal: metallic 1, no textures, no transmission -> `gltf_metal` (gltf_metal.py: glTF's
     Schlick-GGX metal with height-correlated Smith shadowing, which no Mitsuba built-in has),
     F0 = the base colour, alpha = roughness squared;
+  - Tessera's Phong (`TESSERA_materials_phong`: kd, ks, n) -> `tessera_phong` (tessera_phong.py);
   - emission: `emissiveFactor` x `KHR_materials_emissive_strength` -> a one-sided `area`
     emitter (two-sided materials are refused: Mitsuba's area lights emit on one side).
-  Anything else (textures, rough glass, partly metallic surfaces, Phong, punctual lights, a thin lens) raises
+  Anything else (textures, rough glass, partly metallic surfaces, punctual lights, a thin lens) raises
   `Unsupported` naming the scene element, so a comparison is never made against a different
   scene.
 * Camera: the first perspective camera node; glTF looks down -Z with +Y up, Mitsuba's
@@ -50,6 +51,7 @@ import numpy as np
 sys.dont_write_bytecode = True
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import gltf_metal  # noqa: E402
+import tessera_phong  # noqa: E402
 
 
 class Unsupported(ValueError):
@@ -139,6 +141,9 @@ def bsdf_of(mat: dict, name: str) -> tuple[dict, dict | None]:
     base = pbr.get("baseColorFactor", [1.0, 1.0, 1.0, 1.0])[:3]
     if "baseColorTexture" in pbr or "normalTexture" in mat or "emissiveTexture" in mat:
         raise Unsupported(f"material {name!r}: textures")
+    if "TESSERA_materials_phong" in ext:
+        phong = ext["TESSERA_materials_phong"]
+        return {"type": "tessera_phong", "kd": phong["kd"], "ks": phong["ks"], "n": float(phong["n"])}, None
     transmission = ext.get("KHR_materials_transmission", {}).get("transmissionFactor", 0.0)
     metallic = pbr.get("metallicFactor", 1.0)
     if metallic == 1.0 and transmission == 0.0 and "metallicRoughnessTexture" not in pbr:
@@ -250,8 +255,11 @@ def build_scene_dict(mi, gltf_path: str, tmpdir: str, size: int, flat: bool = Fa
     if g.doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights"):
         raise Unsupported("punctual lights")
     body = shapes(g, tmpdir, flat)
-    if any(s["bsdf"]["type"] == "gltf_metal" for s in body.values()):
+    kinds = {s["bsdf"]["type"] for s in body.values()}
+    if "gltf_metal" in kinds:
         gltf_metal.register()
+    if "tessera_phong" in kinds:
+        tessera_phong.register()
     media = any("interior" in s for s in body.values())
     integrator = {"type": "volpath" if media else "path", "max_depth": -1}
     return {"type": "scene", "integrator": integrator, "sensor": sensor(g, mi, size), **body}

@@ -64,7 +64,7 @@ pub struct MitsubaBench {
     pub roulette_depth: Vec<u32>,
     /// Bundled scene to render. Mitsuba renders it from the same glTF
     /// (`tests/reference/gltf_scene.py`) where it can render it as Tessera does (matte surfaces,
-    /// pure metals, area lights, smooth glass with or without absorption); for other scenes it says what it
+    /// pure metals, Phong, area lights, smooth glass with or without absorption); for other scenes it says what it
     /// lacks and Tessera's side is measured alone.
     #[arg(long, default_value = "cornell-box")]
     pub scene: String,

@@ -49,12 +49,12 @@ fn a_scene_mitsuba_cannot_render_is_measured_on_tessera_alone() {
     std::fs::create_dir_all(&dir).unwrap();
     // Stands in for python3 running the script on a scene it cannot translate.
     let fake = dir.join("python3");
-    std::fs::write(&fake, "#!/bin/sh\necho 'Mitsuba cannot render phong as Tessera does: a specular layer' >&2\nexit 2\n").unwrap();
+    std::fs::write(&fake, "#!/bin/sh\necho 'Mitsuba cannot render textured as Tessera does: textures' >&2\nexit 2\n").unwrap();
     std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
     let err = mitsuba_rows(&Reference { means: vec![], variance: vec![], description: String::new() }, &bench(fake.to_str().unwrap(), &dir), 1)
         .expect_err("the script refused");
     assert!(err.is::<Untranslatable>(), "{err:#}");
-    assert_eq!(err.to_string(), "Mitsuba cannot render phong as Tessera does: a specular layer");
+    assert_eq!(err.to_string(), "Mitsuba cannot render textured as Tessera does: textures");
     let rows = run(&bench(fake.to_str().unwrap(), &dir)).expect("Tessera's side still runs");
     let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(rows.len(), 4, "two samplers × two spp, Tessera only");
