@@ -23,6 +23,8 @@ where the Python code is traced once into the render's compiled kernels.
 
 from __future__ import annotations
 
+import reflection_bsdf
+
 MIN_ALPHA = 1e-4  # Tessera's ggx::MIN_ALPHA
 
 
@@ -38,15 +40,12 @@ def register() -> None:
     import drjit as dr
     import mitsuba as mi
 
-    class GltfMetal(mi.BSDF):
+    class GltfMetal(reflection_bsdf.base(mi, dr)):
         def __init__(self, props):
-            mi.BSDF.__init__(self, props)
+            super().__init__(props, mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide)
             self.base_color = mi.Color3f(props["base_color"])
             self.alpha = max(float(props["alpha"]), MIN_ALPHA)
             self.distr = mi.MicrofacetDistribution(mi.MicrofacetType.GGX, self.alpha, True)
-            flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
-            self.m_components = [flags]
-            self.m_flags = flags
 
         def _lambda(self, cos_theta):
             c2 = cos_theta * cos_theta
@@ -67,25 +66,9 @@ def register() -> None:
             pdf = self.distr.smith_g1(wi, h) * d / (4.0 * ci)
             return dr.select(valid, value, 0.0), dr.select(valid, pdf, 0.0)
 
-        def sample(self, ctx, si, sample1, sample2, active):
-            m, _ = self.distr.sample(si.wi, sample2)
-            wo = mi.reflect(si.wi, m)
-            value, pdf = self._f_cos(si.wi, wo)
-            bs = mi.BSDFSample3f()
-            bs.wo, bs.pdf, bs.eta = wo, pdf, 1.0
-            bs.sampled_component = mi.UInt32(0)
-            bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
-            ok = active & (pdf > 0.0)
-            return bs, dr.select(ok, value / dr.select(ok, pdf, 1.0), 0.0)
-
-        def eval(self, ctx, si, wo, active):
-            return self._f_cos(si.wi, wo)[0]
-
-        def pdf(self, ctx, si, wo, active):
-            return self._f_cos(si.wi, wo)[1]
-
-        def eval_pdf(self, ctx, si, wo, active):
-            return self._f_cos(si.wi, wo)
+        def _direction(self, wi, sample1, sample2):
+            m, _ = self.distr.sample(wi, sample2)
+            return mi.reflect(wi, m)
 
         def to_string(self):
             return f"GltfMetal[base_color={self.base_color}, alpha={self.alpha}]"

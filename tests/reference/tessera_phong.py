@@ -15,6 +15,8 @@ Register with `register()` before `mi.load_dict`; it needs a JIT variant (`llvm_
 
 from __future__ import annotations
 
+import reflection_bsdf
+
 _registered = False
 
 
@@ -27,16 +29,14 @@ def register() -> None:
     import drjit as dr
     import mitsuba as mi
 
-    class TesseraPhong(mi.BSDF):
+    class TesseraPhong(reflection_bsdf.base(mi, dr)):
         def __init__(self, props):
-            mi.BSDF.__init__(self, props)
+            flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
+            super().__init__(props, flags)
             kd, ks = list(props["kd"]), list(props["ks"])
             self.kd, self.ks, self.n = mi.Color3f(kd), mi.Color3f(ks), float(props["n"])
             pd, ps = max(kd), max(ks)
             self.p_lobe = ps / (pd + ps) if pd + ps > 0.0 else 0.0
-            flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
-            self.m_components = [flags]
-            self.m_flags = flags
 
         def _f_cos(self, wi, wo):
             """f · cosθo, and the sampling density of wo, for local directions."""
@@ -49,29 +49,13 @@ def register() -> None:
             pdf = (1.0 - self.p_lobe) * co * dr.inv_pi + self.p_lobe * (self.n + 1.0) * 0.5 * dr.inv_pi * lobe
             return dr.select(valid, value, 0.0), dr.select(valid, pdf, 0.0)
 
-        def sample(self, ctx, si, sample1, sample2, active):
-            mirror = mi.Vector3f(-si.wi.x, -si.wi.y, si.wi.z)
+        def _direction(self, wi, sample1, sample2):
+            mirror = mi.Vector3f(-wi.x, -wi.y, wi.z)
             cos_a = dr.power(sample2.x, 1.0 / (self.n + 1.0))
             sin_a = dr.safe_sqrt(1.0 - cos_a * cos_a)
             phi = 2.0 * dr.pi * sample2.y
             around = mi.Frame3f(mirror).to_world(mi.Vector3f(sin_a * dr.cos(phi), sin_a * dr.sin(phi), cos_a))
-            wo = dr.select(sample1 < self.p_lobe, around, mi.warp.square_to_cosine_hemisphere(sample2))
-            value, pdf = self._f_cos(si.wi, wo)
-            bs = mi.BSDFSample3f()
-            bs.wo, bs.pdf, bs.eta = wo, pdf, 1.0
-            bs.sampled_component = mi.UInt32(0)
-            bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
-            ok = active & (pdf > 0.0)
-            return bs, dr.select(ok, value / dr.select(ok, pdf, 1.0), 0.0)
-
-        def eval(self, ctx, si, wo, active):
-            return self._f_cos(si.wi, wo)[0]
-
-        def pdf(self, ctx, si, wo, active):
-            return self._f_cos(si.wi, wo)[1]
-
-        def eval_pdf(self, ctx, si, wo, active):
-            return self._f_cos(si.wi, wo)
+            return dr.select(sample1 < self.p_lobe, around, mi.warp.square_to_cosine_hemisphere(sample2))
 
         def to_string(self):
             return f"TesseraPhong[kd={self.kd}, ks={self.ks}, n={self.n}]"
