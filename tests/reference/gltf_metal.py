@@ -28,19 +28,13 @@ import reflection_bsdf
 MIN_ALPHA = 1e-4  # Tessera's ggx::MIN_ALPHA
 
 
-_registered = False
-
-
 def register() -> None:
     """Makes `gltf_metal` known to Mitsuba (once per process)."""
-    global _registered
-    if _registered:
-        return
-    _registered = True
-    import drjit as dr
-    import mitsuba as mi
+    reflection_bsdf.register("gltf_metal", _define)
 
-    class GltfMetal(reflection_bsdf.base(mi, dr)):
+
+def _define(Base, mi, dr):
+    class GltfMetal(Base):
         def __init__(self, props):
             super().__init__(props, mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide)
             self.base_color = mi.Color3f(props["base_color"])
@@ -73,4 +67,4 @@ def register() -> None:
         def to_string(self):
             return f"GltfMetal[base_color={self.base_color}, alpha={self.alpha}]"
 
-    mi.register_bsdf("gltf_metal", lambda props: GltfMetal(props))
+    return GltfMetal

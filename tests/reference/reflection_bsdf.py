@@ -6,10 +6,26 @@ BSDF for Mitsuba 3 defined by two methods of a subclass,
 * `_direction(wi, sample1, sample2)`: a direction wo drawn with that density.
 
 `sample` returns the weight f · cosθo / pdf (0 where the density is 0, e.g. below the horizon);
-`eval`, `pdf` and `eval_pdf` evaluate `_f_cos`. Call `base(mi, dr)` after `mi.set_variant`.
+`eval`, `pdf` and `eval_pdf` evaluate `_f_cos`. `register(name, define)` makes such a plugin
+known to Mitsuba once per process; call it after `mi.set_variant`.
 """
 
 from __future__ import annotations
+
+_registered: set[str] = set()
+
+
+def register(name: str, define) -> None:
+    """Registers the plugin `name` whose class `define(Base, mi, dr)` returns, Base being the
+    class below; a second call with the same name does nothing."""
+    if name in _registered:
+        return
+    _registered.add(name)
+    import drjit as dr
+    import mitsuba as mi
+
+    cls = define(base(mi, dr), mi, dr)
+    mi.register_bsdf(name, lambda props: cls(props))
 
 
 def base(mi, dr):

@@ -17,19 +17,14 @@ from __future__ import annotations
 
 import reflection_bsdf
 
-_registered = False
-
 
 def register() -> None:
     """Makes `tessera_phong` known to Mitsuba (once per process)."""
-    global _registered
-    if _registered:
-        return
-    _registered = True
-    import drjit as dr
-    import mitsuba as mi
+    reflection_bsdf.register("tessera_phong", _define)
 
-    class TesseraPhong(reflection_bsdf.base(mi, dr)):
+
+def _define(Base, mi, dr):
+    class TesseraPhong(Base):
         def __init__(self, props):
             flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
             super().__init__(props, flags)
@@ -60,4 +55,4 @@ def register() -> None:
         def to_string(self):
             return f"TesseraPhong[kd={self.kd}, ks={self.ks}, n={self.n}]"
 
-    mi.register_bsdf("tessera_phong", lambda props: TesseraPhong(props))
+    return TesseraPhong

@@ -121,7 +121,7 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
         100.0 * rendering / stock_rate
     );
     drop(rays);
-    same_rays::run(&scene, &stock, b, b.save_rays.as_deref())
+    same_rays::run(&scene, &stock, b)
 }
 
 /// Renders the whole frame on a pool of one thread; returns the rays traced and the seconds.

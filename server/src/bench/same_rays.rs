@@ -25,10 +25,10 @@ struct Round {
     ours_shadow: f64,
 }
 
-pub fn run(scene: &Scene, stock: &StockBvh, b: &BvhBench, save: Option<&Path>) -> anyhow::Result<()> {
+pub fn run(scene: &Scene, stock: &StockBvh, b: &BvhBench) -> anyhow::Result<()> {
     let (size, spp, rounds) = (b.size, b.spp, b.rounds);
     let logged = log_rays(scene, size, spp)?;
-    if let Some(path) = save {
+    if let Some(path) = &b.save_rays {
         write_rays(path, &logged)?;
         crate::say!("wrote the render's {} rays to {}", logged.len(), path.display());
     }
@@ -94,17 +94,22 @@ fn share(ours: f64, embree: Option<f64>) -> String {
     }
 }
 
-/// The median round's figure.
-fn median(rounds: &[Round], figure: impl Fn(&Round) -> f64) -> f64 {
+/// A figure of every round, in increasing order.
+fn sorted(rounds: &[Round], figure: impl Fn(&Round) -> f64) -> Vec<f64> {
     let mut v: Vec<f64> = rounds.iter().map(figure).collect();
     v.sort_by(f64::total_cmp);
+    v
+}
+
+/// The median round's figure.
+fn median(rounds: &[Round], figure: impl Fn(&Round) -> f64) -> f64 {
+    let v = sorted(rounds, figure);
     v[v.len() / 2]
 }
 
 /// "median (min–max)" of a figure over the rounds.
 fn spread(rounds: &[Round], figure: impl Fn(&Round) -> f64) -> String {
-    let mut v: Vec<f64> = rounds.iter().map(figure).collect();
-    v.sort_by(f64::total_cmp);
+    let v = sorted(rounds, figure);
     let precision = if v[v.len() / 2] >= 20.0 { 0 } else { 2 };
     format!("{:.p$} ({:.p$}–{:.p$})", v[v.len() / 2], v[0], v[v.len() - 1], p = precision)
 }
