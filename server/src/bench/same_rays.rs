@@ -9,7 +9,8 @@
 //! and the range are printed.
 use crate::bench::bvh::{BvhBench, render_one_core};
 use crate::bench::overhead::settings;
-use crate::bench::stock::{StockBvh, ours_logged};
+use crate::bench::stock::{StockBvh, ours_counted, ours_logged};
+use tessera_worker::tracer::accel::{Accel, WalkCounts};
 use tessera_worker::tracer::ray_log::{LoggedRay, RayLog, RayQuery};
 use std::path::Path;
 use tessera_worker::tracer::{Scene, render_tile_logged};
@@ -62,8 +63,19 @@ pub fn run(scene: &Scene, stock: &StockBvh, b: &BvhBench) -> anyhow::Result<()> 
         spread(&all, |r| 100.0 * r.render / r.stock),
         spread(&all, |r| 100.0 * r.render / r.ours),
     );
+    say_walk(&scene.accel, &logged);
     say_embree(b, &logged, &all);
     Ok(())
+}
+
+/// The work of our walk per ray, by kind of ray.
+fn say_walk(accel: &Accel, logged: &[LoggedRay]) {
+    let (closest, shadow) = ours_counted(accel, logged);
+    let per_ray = |c: &WalkCounts| {
+        let (nodes, packets, triangles) = c.per_ray();
+        format!("{nodes:.2} node tests, {packets:.2} packet tests ({triangles:.2} triangles)")
+    };
+    crate::say!("our walk per ray: closest-hit rays {}; shadow rays {}", per_ray(&closest), per_ray(&shadow));
 }
 
 /// The same rays through Mitsuba's traversal (Embree), when the scene is a glTF and Mitsuba is

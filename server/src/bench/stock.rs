@@ -6,7 +6,7 @@ use glam::Vec3;
 use obvhs::cwbvh::CwBvh;
 use obvhs::triangle::Triangle;
 use std::time::Instant;
-use tessera_worker::tracer::accel::Accel;
+use tessera_worker::tracer::accel::{Accel, WalkCounts};
 use tessera_worker::tracer::ray::Ray;
 use tessera_worker::tracer::ray_log::{LoggedRay, RayQuery};
 
@@ -60,4 +60,16 @@ pub fn ours_logged(accel: &Accel, rays: &[LoggedRay]) -> (u64, f64) {
         } as u64)
         .sum();
     (hits, t.elapsed().as_secs_f64())
+}
+
+/// What our walk did on the logged rays: (closest-hit rays', shadow rays') counts.
+pub fn ours_counted(accel: &Accel, rays: &[LoggedRay]) -> (WalkCounts, WalkCounts) {
+    let (mut closest, mut shadow) = (WalkCounts::default(), WalkCounts::default());
+    for r in rays {
+        match r.query {
+            RayQuery::Closest => _ = accel.intersect_counted(&r.ray, r.t_max, &mut closest),
+            RayQuery::Occluded => _ = accel.occluded_counted(&r.ray, r.t_max, &mut shadow),
+        }
+    }
+    (closest, shadow)
 }

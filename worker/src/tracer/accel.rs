@@ -18,6 +18,8 @@ use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::ploc::PlocBuilder;
 use obvhs::{BvhBuildParams, bvh2::Bvh2, cwbvh::CwBvh, ray::RayHit, triangle::Triangle};
 use std::time::Duration;
+pub use stats::WalkCounts;
+use stats::Tally;
 
 /// Which obvhs tree to build. The wide BVH is faster; the binary one is kept for cross-checks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -27,8 +29,9 @@ pub enum BvhKind {
 }
 
 enum Tree {
-    /// obvhs's wide tree and each of its nodes' child boxes in f32, tight (`accel_node.rs`).
-    Wide(CwBvh, Vec<node::ChildBoxes>),
+    /// The nodes of obvhs's wide tree as our walk reads them (tight f32 child boxes,
+    /// `accel_node.rs`) and its primitive slots (`accel_layout.rs`).
+    Wide(Vec<node::Node>, Vec<u32>),
     Binary(Bvh2),
     Empty,
 }
@@ -43,6 +46,8 @@ pub struct Accel {
     /// The binary tree the wide one was converted from, kept by [`Accel::build_refittable`] so
     /// [`Accel::refit`] can move its boxes instead of building again.
     refit: Option<refit::RefitBase>,
+    /// Whether queries run the walk compiled for AVX2 (`accel_avx2.rs`): the same hits.
+    avx2: bool,
 }
 
 /// Closest hit: ray parameter and barycentrics (b0 = 1 − b1 − b2) on triangle `prim`.
@@ -71,7 +76,7 @@ impl Accel {
         let keep = kept(tris);
         let scale = tree_scale(keep.iter().map(|&i| &tris[i as usize]));
         if keep.is_empty() {
-            return Accel { tree: Tree::Empty, tris: Packets::new(&[]), prim_ids: Vec::new(), scale, refit: None };
+            return Accel { tree: Tree::Empty, tris: Packets::new(&[]), prim_ids: Vec::new(), scale, refit: None, avx2: false };
         }
         let obvhs_tris = tree_triangles(tris, &keep, scale);
         let params = BvhBuildParams::medium_build();
@@ -102,13 +107,15 @@ impl Accel {
 
     fn assemble(tree: Tree, tris: &[[Vec3; 3]], keep: &[u32], scale: f32, refit: Option<refit::RefitBase>) -> Accel {
         let slots = match &tree {
-            Tree::Wide(b, _) => &b.primitive_indices,
+            Tree::Wide(_, slots) => slots,
             Tree::Binary(b) => &b.primitive_indices,
-            Tree::Empty => return Accel { tree, tris: Packets::new(&[]), prim_ids: Vec::new(), scale, refit: None },
+            Tree::Empty => return Accel { tree, tris: Packets::new(&[]), prim_ids: Vec::new(), scale, refit: None, avx2: false },
         };
-        let prim_ids: Vec<u32> = slots.iter().map(|&k| keep[k as usize]).collect();
-        let verts: Vec<[Vec3; 3]> = prim_ids.iter().map(|&i| tris[i as usize].map(|v| v * scale)).collect();
-        Accel { tree, tris: Packets::new(&verts), prim_ids, scale, refit }
+        // Padding slots (`layout::PAD`) are never tested: a zero triangle and index fill them.
+        let prim_ids: Vec<u32> = slots.iter().map(|&k| if k == layout::PAD { layout::PAD } else { keep[k as usize] }).collect();
+        let verts: Vec<[Vec3; 3]> =
+            prim_ids.iter().map(|&i| if i == layout::PAD { [Vec3::ZERO; 3] } else { tris[i as usize].map(|v| v * scale) }).collect();
+        Accel { tree, tris: Packets::new(&verts), prim_ids, scale, refit, avx2: avx2::detected() }
     }
 
     /// Closest hit with 0 < t < t_max.
@@ -121,6 +128,26 @@ impl Accel {
     /// filter, e.g. alpha masks: rejected hits do not shorten the ray).
     #[inline]
     pub fn intersect_where(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is set only where the CPU has the features `closest_avx2` enables.
+            return unsafe { self.closest_avx2(ray, t_max, keep, &mut ()) };
+        }
+        self.closest::<false>(ray, t_max, keep, &mut ())
+    }
+
+    /// [`Accel::intersect`], adding what the walk did to `counts` (the wide tree's work only).
+    pub fn intersect_counted(&self, ray: &Ray, t_max: f32, counts: &mut WalkCounts) -> Option<Hit> {
+        self.closest::<false>(ray, t_max, |_, _, _| true, counts)
+    }
+
+    /// [`Accel::occluded`], adding what the walk did to `counts` (the wide tree's work only).
+    pub fn occluded_counted(&self, ray: &Ray, t_max: f32, counts: &mut WalkCounts) -> bool {
+        self.blocked::<false>(ray, t_max, |_, _, _| true, counts)
+    }
+
+    #[inline(always)]
+    fn closest<const AVX: bool>(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool, tally: &mut impl Tally) -> Option<Hit> {
         let (obvhs_ray, wt) = self.tree_ray(ray, t_max)?;
         // (slot, t, b1, b2) of the closest accepted candidate. The test accepts t ≤ tmax, so a
         // tie (a ray through a shared edge) comes here too: it goes to the smaller triangle
@@ -135,8 +162,9 @@ impl Accel {
             }
         };
         match &self.tree {
-            Tree::Wide(b, boxes) => wide::walk(b, boxes, obvhs_ray, |r, base, bits| {
+            Tree::Wide(nodes, _) => wide::walk::<AVX, _>(nodes, obvhs_ray, tally, |r, base, bits, tally| {
                 for_packets(base, bits, |packet, lanes| {
+                    tally.packet(lanes);
                     for (lane, t, b1, b2) in self.tris.test(&wt, packet, lanes, r.tmax).iter() {
                         consider(&mut r.tmax, packet * 4 + lane, t, b1, b2);
                     }
@@ -169,13 +197,24 @@ impl Accel {
     /// Whether a hit `keep(triangle, b1, b2)` accepts blocks the ray on 0 < t < t_max.
     #[inline]
     pub fn occluded_where(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: as in `intersect_where`.
+            return unsafe { self.blocked_avx2(ray, t_max, keep, &mut ()) };
+        }
+        self.blocked::<false>(ray, t_max, keep, &mut ())
+    }
+
+    #[inline(always)]
+    fn blocked<const AVX: bool>(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool, tally: &mut impl Tally) -> bool {
         let Some((obvhs_ray, wt)) = self.tree_ray(ray, t_max) else { return false };
         let blocks = |slot: usize, t: f32, b1: f32, b2: f32, tmax: f32| t < tmax && keep(self.prim_ids[slot], b1, b2);
         match &self.tree {
-            Tree::Wide(b, boxes) => {
+            Tree::Wide(nodes, _) => {
                 let mut found = false;
-                wide::walk(b, boxes, obvhs_ray, |r, base, bits| {
+                wide::walk::<AVX, _>(nodes, obvhs_ray, tally, |r, base, bits, tally| {
                     found = for_packets(base, bits, |packet, lanes| {
+                        tally.packet(lanes);
                         let c = self.tris.test(&wt, packet, lanes, r.tmax);
                         c.iter().any(|(lane, t, b1, b2)| blocks(packet * 4 + lane, t, b1, b2, r.tmax))
                     });
@@ -216,9 +255,10 @@ impl Accel {
 
 impl Tree {
     /// The wide tree `bvh` over `tris` (tree space, as its primitive indices number them).
-    fn wide(bvh: CwBvh, tris: &[Triangle]) -> Tree {
-        let boxes = node::ChildBoxes::of_tree(&bvh, tris);
-        Tree::Wide(bvh, boxes)
+    fn wide(mut bvh: CwBvh, tris: &[Triangle]) -> Tree {
+        layout::pack_leaves(&mut bvh);
+        let nodes = node::Node::of_tree(&bvh, tris);
+        Tree::Wide(nodes, bvh.primitive_indices)
     }
 }
 
@@ -333,6 +373,12 @@ pub(crate) fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(f32, u32)> {
     best
 }
 
+#[path = "accel_avx2.rs"]
+mod avx2;
+#[path = "accel_layout.rs"]
+mod layout;
+#[path = "accel_stats.rs"]
+mod stats;
 #[path = "accel_refit.rs"]
 mod refit;
 #[path = "accel_wide.rs"]

@@ -38,7 +38,7 @@ fn enters(ray: &Ray, lo: Vec3A, hi: Vec3A) -> bool {
 #[test]
 fn child_boxes_are_tight_and_inside_the_quantized_ones() {
     let (bvh, tris) = random_tree(&mut Rng::new(3));
-    let boxes = ChildBoxes::of_tree(&bvh, &tris);
+    let boxes = Node::of_tree(&bvh, &tris);
     let mut leaves = 0;
     for (node, b) in bvh.nodes.iter().zip(&boxes) {
         let e = node.compute_extent();
@@ -75,7 +75,7 @@ fn child_boxes_are_tight_and_inside_the_quantized_ones() {
 fn every_entered_child_is_kept_and_no_more_than_obvhs_keeps() {
     let mut rng = Rng::new(1);
     let (bvh, tris) = random_tree(&mut rng);
-    let boxes = ChildBoxes::of_tree(&bvh, &tris);
+    let boxes = Node::of_tree(&bvh, &tris);
     let (mut tested, mut entered, mut differ, mut tighter) = (0, 0, 0, 0);
     for k in 0..2000 {
         let o = Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 140.0 - Vec3A::splat(20.0);
@@ -88,7 +88,7 @@ fn every_entered_child_is_kept_and_no_more_than_obvhs_keeps() {
         let oct = super::super::wide::octant_inv4(d);
         let slabs = Slabs::new(&ray);
         for (node, b) in bvh.nodes.iter().zip(&boxes) {
-            let mask = hits(node, b, &slabs, &ray, oct);
+            let mask = hits::<false>(b, &slabs, &ray, oct);
             let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct);
             for child in 0..8 {
                 let bits = ((child_bits8 >> (8 * child)) as u32 & 0xff) << ((bit_index8 >> (8 * child)) as u32 & 0xff);
@@ -115,4 +115,51 @@ fn every_entered_child_is_kept_and_no_more_than_obvhs_keeps() {
     assert!(tested > 100_000 && entered > 1000 && entered < tested, "{entered} of {tested}");
     assert!(differ * 1000 < tested, "{differ} nodes keep children obvhs's test culls, of {tested} children");
     assert!(tighter > 0, "the tight boxes never culled more than obvhs's");
+}
+
+/// The 256-bit node test (`accel_node_wide8.rs`) keeps exactly the children the two 128-bit
+/// halves keep, and gives the same leaf bits, on every node for random and axis rays.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn the_256_bit_test_keeps_what_the_128_bit_test_keeps() {
+    /// `hits::<true>` compiled with AVX, as the AVX2 walk compiles it.
+    #[target_feature(enable = "avx")]
+    unsafe fn hits_avx(node: &Node, slabs: &Slabs, ray: &Ray, oct: u32) -> u32 {
+        hits::<true>(node, slabs, ray, oct)
+    }
+    if !std::arch::is_x86_feature_detected!("avx") {
+        eprintln!("this CPU has no AVX: nothing to compare");
+        return;
+    }
+    let mut rng = Rng::new(5);
+    let (bvh, tris) = random_tree(&mut rng);
+    let nodes = Node::of_tree(&bvh, &tris);
+    let (mut kept, mut tested) = (0u32, 0u32);
+    for k in 0..4000 {
+        let o = Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 140.0 - Vec3A::splat(20.0);
+        let d = (Vec3A::new(rng.f32(), rng.f32(), rng.f32()) - Vec3A::splat(0.5)).normalize_or(Vec3A::X);
+        let d = match k % 4 {
+            3 => Vec3A::new(-0.0, 0.0, d.z.signum()),
+            // At a corner of a child box, where rounding decides whether the ray enters it.
+            1 => {
+                let node = &nodes[rng.next_u32() as usize % nodes.len()];
+                let (lo, hi) = node.child(rng.next_u32() as usize % 8);
+                let corner = Vec3A::select(glam::BVec3A::new(k & 8 == 0, k & 16 == 0, k & 32 == 0), lo, hi);
+                if corner.is_finite() { (corner - o).normalize_or(Vec3A::X) } else { d }
+            }
+            _ => d,
+        };
+        let mut ray = Ray::new(o, d, 0.0, if k % 2 == 0 { f32::INFINITY } else { 40.0 });
+        ray.inv_direction = super::super::exact_reciprocal(d);
+        let oct = super::super::wide::octant_inv4(d);
+        let slabs = Slabs::new(&ray);
+        for node in &nodes {
+            let want = hits::<false>(node, &slabs, &ray, oct);
+            // SAFETY: AVX was detected above.
+            assert_eq!(unsafe { hits_avx(node, &slabs, &ray, oct) }, want, "ray {k}");
+            kept += want.count_ones();
+            tested += 1;
+        }
+    }
+    assert!(kept > 1000 && tested > 100_000, "{kept} bits kept over {tested} node tests");
 }

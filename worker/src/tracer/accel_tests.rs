@@ -274,3 +274,35 @@ fn axis_rays_match_brute_force(tris: &[[Vec3; 3]], kind: BvhKind) {
     }
     assert!(found > 500, "{kind:?}: only {found} rays hit");
 }
+
+/// The copy of the queries compiled for AVX2 (`accel_avx2.rs`) finds bit for bit the hits of
+/// the baseline copy, on random rays and on axis rays with zero components of either sign.
+#[test]
+fn the_avx2_queries_find_the_baseline_hits() {
+    if !avx2::detected() {
+        eprintln!("this CPU has no AVX2 (or TESSERA_NO_AVX2 is set): nothing to compare");
+        return;
+    }
+    let tris = triangle_soup(&mut Rng(21), 4000);
+    let (mut baseline, avx) = (Accel::build(&tris, BvhKind::Wide), Accel::build(&tris, BvhKind::Wide));
+    baseline.avx2 = false;
+    assert!(avx.avx2);
+    let mut rng = Rng(22);
+    let mut hits = 0;
+    for k in 0..20_000 {
+        let o = rng.vec() * 12.0 - Vec3::ONE;
+        let d = if k % 4 == 3 {
+            let (z0, z1) = (if k & 8 == 0 { 0.0 } else { -0.0 }, if k & 16 == 0 { 0.0 } else { -0.0 });
+            [Vec3::new(1.0, z0, z1), Vec3::new(z0, -1.0, z1), Vec3::new(z0, z1, 1.0)][k % 3]
+        } else {
+            (rng.vec() - Vec3::splat(0.5)).normalize_or(Vec3::X)
+        };
+        let ray = Ray::new(o, d);
+        let t_max = if k % 2 == 0 { f32::INFINITY } else { rng.next() * 6.0 };
+        let want = baseline.intersect(&ray, t_max);
+        assert_eq!(avx.intersect(&ray, t_max), want, "ray {k}: {ray:?}");
+        assert_eq!(avx.occluded(&ray, t_max), baseline.occluded(&ray, t_max), "ray {k}: {ray:?}");
+        hits += usize::from(want.is_some());
+    }
+    assert!(hits > 2000 && hits < 18_000, "{hits} of 20000 rays hit");
+}

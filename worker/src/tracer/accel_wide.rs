@@ -9,8 +9,8 @@
 //! Depth: [`super::Accel`] only builds a wide tree shallower than [`STACK`] (see `wide_depth`),
 //! so the stack never fills; were it to, pushes saturate as obvhs's do (no overflow).
 use glam::{UVec2, Vec3A};
-use super::node::{ChildBoxes, Slabs};
-use obvhs::cwbvh::CwBvh;
+use super::node::{Node, Slabs};
+use super::stats::Tally;
 use obvhs::faststack::FastStack;
 use obvhs::ray::Ray;
 use std::mem::MaybeUninit;
@@ -72,8 +72,8 @@ struct State {
 
 impl State {
     #[inline(always)]
-    fn new(bvh: &CwBvh, dir: Vec3A) -> State {
-        let root = if bvh.nodes.is_empty() { UVec2::ZERO } else { UVec2::new(0, 0x8000_0000) };
+    fn new(nodes: &[Node], dir: Vec3A) -> State {
+        let root = if nodes.is_empty() { UVec2::ZERO } else { UVec2::new(0, 0x8000_0000) };
         State { stack: Stack::new(), current_group: root, primitive_group: UVec2::ZERO, oct_inv4: octant_inv4(dir) }
     }
 }
@@ -84,18 +84,21 @@ pub(super) fn octant_inv4(dir: Vec3A) -> u32 {
     (if dir.x < 0.0 { 0 } else { 0x0404_0404 }) | (if dir.y < 0.0 { 0 } else { 0x0202_0202 }) | (if dir.z < 0.0 { 0 } else { 0x0101_0101 })
 }
 
-/// Walks the tree along `ray`, handing `leaf(ray, base, bits)` the candidate triangles of each
-/// node at once (slots `base + i` for the set bits i: every triangle of the node's leaf children
-/// the ray enters) instead of one at a time as obvhs's `traverse!` does, so they can be tested
-/// four to a packet. `leaf` may shorten `ray.tmax` (closest hit: later boxes are culled against
-/// it) and returns true to stop the walk (any hit). Otherwise the steps of `traverse!`.
+/// Walks the tree along `ray`, handing `leaf(ray, base, bits, tally)` the candidate triangles of
+/// each node at once (slots `base + i` for the set bits i: every triangle of the node's leaf
+/// children the ray enters) instead of one at a time as obvhs's `traverse!` does, so they can be
+/// tested four to a packet. `leaf` may shorten `ray.tmax` (closest hit: later boxes are culled
+/// against it) and returns true to stop the walk (any hit). Otherwise the steps of `traverse!`.
+/// Each step is reported to `tally` (`()` for the tracer's queries: no code). `AVX`: the node
+/// test for code compiled with AVX (`accel_avx2.rs`).
 #[inline(always)]
-pub(super) fn walk(bvh: &CwBvh, boxes: &[ChildBoxes], mut ray: Ray, mut leaf: impl FnMut(&mut Ray, u32, u32) -> bool) {
-    let mut state = State::new(bvh, ray.direction);
+pub(super) fn walk<const AVX: bool, T: Tally>(nodes: &[Node], mut ray: Ray, tally: &mut T, mut leaf: impl FnMut(&mut Ray, u32, u32, &mut T) -> bool) {
+    tally.ray();
+    let mut state = State::new(nodes, ray.direction);
     let slabs = Slabs::new(&ray);
     loop {
         if state.primitive_group.y != 0 {
-            if leaf(&mut ray, state.primitive_group.x, state.primitive_group.y) {
+            if leaf(&mut ray, state.primitive_group.x, state.primitive_group.y, tally) {
                 return;
             }
             state.primitive_group = UVec2::ZERO;
@@ -110,10 +113,11 @@ pub(super) fn walk(bvh: &CwBvh, boxes: &[ChildBoxes], mut ray: Ray, mut leaf: im
             let slot_index = (child_index_offset - 24) ^ (state.oct_inv4 & 0xff);
             let relative_index = (hits_imask & !(0xffff_ffffu32 << slot_index)).count_ones();
             let index = (state.current_group.x + relative_index) as usize;
-            let node = &bvh.nodes[index];
-            let hitmask = super::node::hits(node, &boxes[index], &slabs, &ray, state.oct_inv4);
-            state.current_group = UVec2::new(node.child_base_idx, (hitmask & 0xff00_0000) | node.imask as u32);
-            state.primitive_group = UVec2::new(node.primitive_base_idx, hitmask & 0x00ff_ffff);
+            let node = &nodes[index];
+            tally.node();
+            let hitmask = super::node::hits::<AVX>(node, &slabs, &ray, state.oct_inv4);
+            state.current_group = UVec2::new(node.child_base, (hitmask & 0xff00_0000) | node.imask);
+            state.primitive_group = UVec2::new(node.primitive_base, hitmask & 0x00ff_ffff);
         } else {
             state.current_group = UVec2::ZERO;
         }
