@@ -335,6 +335,7 @@ pub fn triangle_normal(v: &[Vec3; 3]) -> Option<DVec3> {
 
 /// 1/x per lane, with ±f32::MAX instead of ±∞ so that a slab test on a zero component gives
 /// 0·MAX = 0 (ray inside the slab) rather than NaN. One SIMD division, the bits of three.
+#[inline(always)]
 fn exact_reciprocal(x: Vec3A) -> Vec3A {
     let r = Vec3A::ONE / x;
     Vec3A::select(r.is_finite_mask(), r, Vec3A::splat(f32::MAX).copysign(r))
