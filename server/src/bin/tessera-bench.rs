@@ -59,7 +59,8 @@ enum Cmd {
     Accuracy(tessera_server::bench::accuracy::Options),
     /// A generated ~1M-triangle scene (or a bundled one): build time, incoherent rays/s (ours and
     /// obvhs's stock traversal on the same rays), a path-traced render's rays/s against both,
-    /// peak memory; then the render's own rays, logged, traced alone through both BVHs.
+    /// peak memory; then the render's own rays, logged, traced alone through both BVHs, with our
+    /// walk's node and packet tests per ray.
     Bvh(tessera_server::bench::bvh::BvhBench),
     /// An animation job (frames 0..N−1) on local workers with frame affinity on and off.
     Frames(tessera_server::bench::frames::FramesBench),
