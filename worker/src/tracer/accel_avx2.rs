@@ -4,9 +4,10 @@
 //! Where the CPU has AVX2, the closest-hit and shadow queries run a second copy of the same walk
 //! (everything below them is `#[inline(always)]`) compiled with these features: three-operand
 //! VEX instructions instead of SSE's two-operand ones (no register copies before a destructive
-//! operation), and BMI's bit instructions for the masks. Every lane does the same IEEE operations in the same order in both copies
-//! (no fused multiply–add: Rust never contracts), so the boxes culled and the hits are
-//! bit-identical, and a farm of mixed CPUs still renders the same image.
+//! operation), BMI's bit instructions for the masks, and the node test on all eight children in
+//! one 256-bit register (`accel_node_wide8.rs`). Every lane does the same IEEE operations in the
+//! same order in both copies (no fused multiply–add: Rust never contracts), so the boxes culled
+//! and the hits are bit-identical, and a farm of mixed CPUs still renders the same image.
 //!
 //! `TESSERA_NO_AVX2=1` in the environment forces the baseline copy (to compare the two).
 use super::{Accel, Hit, Tally};
