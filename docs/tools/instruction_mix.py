@@ -3,8 +3,9 @@
 
 Reads a callgrind profile taken with `--dump-instr=yes` and the binary it profiled, classifies
 every executed x86-64 instruction by mnemonic (scalar or packed float arithmetic, moves, integer
-work, branches, ...) and prints the counts for BVH traversal (`intersect_where`,
-`occluded_where`) and for the rest of the tracer (shading and sampling). It answers "what would
+work, branches, ...) and prints the counts for BVH traversal (`Accel`'s `intersect_where`,
+`occluded_where`, `closest`, `blocked` and their AVX2 copies) and for the rest of the tracer
+(shading and sampling). It answers "what would
 running several paths in SIMD lanes shrink?" (docs/performance.md, 2026-12-03 session 16).
 
     valgrind --tool=callgrind --dump-instr=yes --callgrind-out-file=cg.out \
@@ -37,6 +38,9 @@ CLASSES = [
 ]
 
 
+TRACE_FUNCTIONS = ('intersect_where', 'occluded_where', '>::closest', '>::blocked')
+
+
 def classify(mnemonic):
     if mnemonic is None:
         return 'unknown'
@@ -47,7 +51,9 @@ def classify(mnemonic):
 
 
 def group(function):
-    if function and ('intersect_where' in function or 'occluded_where' in function):
+    # The walk is `Accel::closest`/`blocked`, or their AVX2 copies `closest_avx2`/`blocked_avx2`
+    # (session 26), inlined into `intersect_where`/`occluded_where` or called from them.
+    if function and 'tracer::accel' in function and any(name in function for name in TRACE_FUNCTIONS):
         return 'trace'
     if function and ('tessera_worker::tracer' in function or 'sincos' in function or 'sinf' in function):
         return 'shade+sample'

@@ -12,10 +12,8 @@
 //!   makes the scene about 2¹² units across, where 1e-4 is below f32 resolution.
 use crate::tracer::ray::{MACHINE_EPSILON, Ray};
 use glam::{DVec3, Vec3, Vec3A};
+use build::{WIDE_STACK, kept, tree_scale, tree_triangles, wide_depth, wide_source, to_wide};
 use packet::{Packets, WatertightRay, for_packets, intersect_triangle};
-use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
-use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
-use obvhs::ploc::PlocBuilder;
 use obvhs::{BvhBuildParams, bvh2::Bvh2, cwbvh::CwBvh, ray::RayHit, triangle::Triangle};
 use std::time::Duration;
 pub use stats::WalkCounts;
@@ -58,8 +56,6 @@ pub struct Hit {
     pub b1: f32,
     pub b2: f32,
 }
-
-const TARGET_EXTENT_LOG2: i32 = 12;
 
 impl Accel {
     /// The tree over every non-[degenerate](triangle_normal) triangle: those have no area
@@ -262,63 +258,6 @@ impl Tree {
     }
 }
 
-/// The triangles the tree holds: the non-degenerate ones.
-fn kept(tris: &[[Vec3; 3]]) -> Vec<u32> {
-    (0..tris.len() as u32).filter(|&i| triangle_normal(&tris[i as usize]).is_some()).collect()
-}
-
-/// The caller's triangles `keep`, scaled into tree space, as obvhs triangles.
-fn tree_triangles(tris: &[[Vec3; 3]], keep: &[u32], scale: f32) -> Vec<Triangle> {
-    keep.iter()
-        .map(|&i| &tris[i as usize])
-        .map(|t| Triangle { v0: Vec3A::from(t[0] * scale), v1: Vec3A::from(t[1] * scale), v2: Vec3A::from(t[2] * scale) })
-        .collect()
-}
-
-/// The binary tree obvhs's `build_cwbvh_from_tris` converts (the same steps, without spatial
-/// splits, which `medium_build` does not use), kept for refits.
-fn wide_source(tris: &[Triangle], params: BvhBuildParams) -> Bvh2 {
-    let mut bvh2 = PlocBuilder::with_capacity(tris.len()).build(
-        params.ploc_search_distance,
-        tris,
-        (0..tris.len() as u32).collect::<Vec<_>>(),
-        params.sort_precision,
-        params.search_depth_threshold,
-    );
-    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
-    bvh2
-}
-
-fn to_wide(bvh2: &Bvh2, params: BvhBuildParams) -> CwBvh {
-    bvh2_to_cwbvh(bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false)
-}
-
-/// The wide-tree traversal stack's depth.
-const WIDE_STACK: u32 = wide::STACK as u32;
-
-/// Depth of a wide BVH, walked as obvhs's own validation does.
-fn wide_depth(bvh: &CwBvh) -> u32 {
-    let mut stack = vec![(0usize, 0u32)];
-    let mut deepest = 0;
-    while let Some((i, depth)) = stack.pop() {
-        deepest = deepest.max(depth);
-        let Some(node) = bvh.nodes.get(i) else { continue };
-        stack.extend(inner_children(node).map(|child| (child, depth + 1)));
-    }
-    deepest
-}
-
-/// The node indices of `node`'s inner children, as obvhs's `child_node_index` finds them but
-/// without trusting the metadata (a slot below 24 is skipped, not an underflow): the trees
-/// [`wide_depth`] vets may be pathological.
-fn inner_children(node: &obvhs::cwbvh::node::CwBvhNode) -> impl Iterator<Item = usize> + '_ {
-    node.child_meta.iter().enumerate().filter_map(|(ch, meta)| {
-        let slot = (meta & 0b11111).checked_sub(24).filter(|_| node.imask & (1 << ch) != 0)?;
-        let before = (node.imask as u32 & !(u32::MAX << slot)).count_ones();
-        Some(node.child_base_idx as usize + before as usize)
-    })
-}
-
 /// The unit geometric normal (counter-clockwise winding), computed in f64; None for a
 /// degenerate triangle: one whose smallest height is at most half an f32 ulp of its largest
 /// coordinate (zero-area triangles, needles). f32 cannot place a point strictly inside such a
@@ -341,24 +280,6 @@ fn exact_reciprocal(x: Vec3A) -> Vec3A {
     Vec3A::select(r.is_finite_mask(), r, Vec3A::splat(f32::MAX).copysign(r))
 }
 
-/// Power of two bringing the scene's extent near 2^TARGET_EXTENT_LOG2, clamped so nothing overflows.
-fn tree_scale<'a>(tris: impl Iterator<Item = &'a [Vec3; 3]>) -> f32 {
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for v in tris.flatten() {
-        lo = lo.min(*v);
-        hi = hi.max(*v);
-    }
-    let extent = (hi - lo).max_element();
-    let reach = lo.abs().max(hi.abs()).max_element();
-    if !(extent.is_finite() && extent > 0.0) {
-        return 1.0;
-    }
-    let mut k = TARGET_EXTENT_LOG2 - extent.log2().ceil() as i32;
-    // Keep scaled coordinates below 2^100 so products in the triangle test cannot overflow.
-    k = k.min(100 - reach.log2().ceil() as i32).clamp(-100, 100);
-    2f32.powi(k)
-}
-
 /// Closest hit (t, triangle index) by testing every triangle in world space: the reference
 /// the BVH traversal is checked against.
 #[cfg(test)]
@@ -376,6 +297,8 @@ pub(crate) fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(f32, u32)> {
 
 #[path = "accel_avx2.rs"]
 mod avx2;
+#[path = "accel_build.rs"]
+mod build;
 #[path = "accel_layout.rs"]
 mod layout;
 #[path = "accel_stats.rs"]

@@ -108,7 +108,7 @@ fn depth_first(bvh: &CwBvh) -> Vec<usize> {
     let mut stack = if bvh.nodes.is_empty() { vec![] } else { vec![0] };
     while let Some(i) = stack.pop() {
         order.push(i);
-        stack.extend(super::inner_children(&bvh.nodes[i]));
+        stack.extend(super::build::inner_children(&bvh.nodes[i]));
     }
     order
 }

@@ -1,6 +1,7 @@
 //! BVH refits for animation frames: the next frame's tree keeps this one's topology and only
 //! moves its boxes (obvhs `Bvh2::refit_all`), then the wide tree is converted again.
-use super::{Accel, Tree, WIDE_STACK, kept, to_wide, tree_scale, tree_triangles, wide_depth};
+use super::build::{WIDE_STACK, kept, to_wide, tree_scale, tree_triangles, wide_depth};
+use super::{Accel, Tree};
 use glam::Vec3;
 use obvhs::{BvhBuildParams, aabb::Aabb, bvh2::Bvh2, triangle::Triangle};
 
