@@ -5,8 +5,8 @@ Reads a callgrind profile taken with `--dump-instr=yes` and the binary it profil
 every executed x86-64 instruction by mnemonic (scalar or packed float arithmetic, moves, integer
 work, branches, ...) and prints the counts for BVH traversal (`Accel`'s `intersect_where`,
 `occluded_where`, `closest`, `blocked` and their AVX2 copies) and for the rest of the tracer
-(shading and sampling). It answers "what would
-running several paths in SIMD lanes shrink?" (docs/performance.md, 2026-12-03 session 16).
+(shading and sampling). It answers "what would running several paths in SIMD lanes shrink?"
+(docs/performance.md, 2026-12-03 session 16).
 
     valgrind --tool=callgrind --dump-instr=yes --callgrind-out-file=cg.out \
         target/release/tessera render cornell-box --width 48 --height 48 --spp 16 --threads 1
