@@ -13,6 +13,7 @@
 //! UV sphere of `segments` × `segments / 2` quads whose radius wobbles by ±15 %
 //! (sin 5θ · sin 7φ), so the triangles are small, numerous and not axis-aligned. For the render
 //! the spheres are grey Lambert under a square area light that overhangs the field.
+use crate::bench::heap;
 use crate::bench::overhead::settings;
 use glam::{Mat4, Vec3};
 use rayon::prelude::*;
@@ -61,21 +62,25 @@ pub struct BvhBench {
 
 pub fn run(b: &BvhBench) -> anyhow::Result<()> {
     // Random rays start anywhere in the geometry's box (for the field: the spheres', not the light's).
-    let (scene, build, label, ray_box) = match &b.scene {
+    let start = heap::live();
+    let (scene, build, label, ray_box, mesh_bytes) = match &b.scene {
         Some(name) => {
+            heap::reset_peak();
             let t = Instant::now();
             let scene = crate::bundled::load(name)?;
             let build = t.elapsed().as_secs_f64();
             let ray_box = bounds(&scene.mesh.positions);
-            (scene, build, format!("{name}, loaded"), ray_box)
+            (scene, build, format!("{name}, loaded"), ray_box, None)
         }
         None => {
             let spheres = sphere_field(b.triangles);
             let ray_box = bounds(&spheres);
             let (mesh, materials, camera) = field_parts(spheres);
+            let mesh_bytes = heap::live().saturating_sub(start);
+            heap::reset_peak();
             let t = Instant::now();
             let scene = Scene::new(mesh, materials, vec![], vec![camera], vec![]);
-            (scene, t.elapsed().as_secs_f64(), "displaced spheres under a light".to_string(), ray_box)
+            (scene, t.elapsed().as_secs_f64(), "displaced spheres under a light".to_string(), ray_box, Some(mesh_bytes))
         }
     };
     let accel = &scene.accel;
@@ -85,6 +90,7 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
         build,
         rayon::current_num_threads()
     );
+    say_heap(start, mesh_bytes, scene.mesh.len());
     let rays = random_rays(b.rays, ray_box);
     let trace = |r: &Ray| accel.intersect(r, f32::INFINITY).is_some() as u64;
     let t1 = Instant::now();
@@ -139,6 +145,9 @@ pub(crate) fn render_one_core(scene: &Scene, size: u32, spp: u32) -> anyhow::Res
 fn field_parts(tris: Vec<[Vec3; 3]>) -> (Mesh, Vec<Material>, Camera) {
     let size = bounds(&tris).1.x.max(1.0);
     let mut mesh = Mesh::default();
+    // Exactly the space the triangles take, so the heap figures are the mesh's, not a Vec's slack.
+    let count = tris.len() + 4;
+    (mesh.positions.reserve_exact(count), mesh.normals.reserve_exact(count), mesh.uvs.reserve_exact(count), mesh.material.reserve_exact(count));
     tris.into_iter().for_each(|t| mesh.push_flat(t, 0));
     let (lo, hi) = (-0.1 * size, 1.1 * size);
     let at = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
@@ -217,6 +226,30 @@ fn random_rays(count: usize, (lo, hi): (Vec3, Vec3)) -> Vec<Ray> {
             Ray::new(origin, Vec3::new(r * phi.cos(), z, r * phi.sin()))
         })
         .collect()
+}
+
+/// What the scene holds on the heap and how high the heap went while it was built (counted from
+/// `start`, the bytes held before the study; `mesh`: the generated mesh's bytes, held before the
+/// build started).
+fn say_heap(start: usize, mesh: Option<usize>, triangles: usize) {
+    if !heap::counting() {
+        return;
+    }
+    let mib = |bytes: usize| bytes as f64 / f64::from(1 << 20);
+    let per = |bytes: usize| bytes as f64 / triangles.max(1) as f64;
+    let (held, peak) = (heap::live().saturating_sub(start), heap::peak().saturating_sub(start));
+    match mesh {
+        Some(mesh) => crate::say!(
+            "heap: the mesh {:.0} MiB ({:.0} B per triangle); the scene built on it adds {:.0} MiB ({:.0} B per triangle: BVH, triangles in packets, face normals, lights); the build peaked at {:.0} MiB with the mesh ({:.0} B per triangle)",
+            mib(mesh),
+            per(mesh),
+            mib(held - mesh),
+            per(held - mesh),
+            mib(peak),
+            per(peak)
+        ),
+        None => crate::say!("heap: the loaded scene holds {:.0} MiB ({:.0} B per triangle); loading and building peaked at {:.0} MiB", mib(held), per(held), mib(peak)),
+    }
 }
 
 /// VmHWM from /proc/self/status (Linux), in KiB.

@@ -5,6 +5,7 @@ pub mod bvh;
 pub mod cpu;
 pub mod embree;
 pub mod frames;
+pub mod heap;
 pub mod host;
 pub mod mitsuba;
 pub mod overhead;

@@ -17,7 +17,8 @@
 //! `tessera-bench bvh`        — a generated ~1M-triangle scene (or `--scene NAME`): build time,
 //!                              incoherent rays per second (one core, all cores; obvhs's stock
 //!                              traversal on the same rays), a path-traced render's rays per second
-//!                              against both, peak resident memory (tessera_server::bench::bvh).
+//!                              against both, the heap the mesh and the scene hold and the
+//!                              build's peak, peak resident memory (tessera_server::bench::bvh).
 //! `tessera-bench frames`     — an animation job on local workers with frame affinity on and off:
 //!                              time per frame and the scene builds/refits workers reported.
 //! `tessera-bench mitsuba`    — time to quality (relMSE × seconds) on the Cornell box against
@@ -89,10 +90,13 @@ enum Cmd {
 /// Built without its transparent-huge-page advice (`no_thp`): with it, the memory those buffers
 /// cycle through was faulted back in 2 MiB at a time, and zeroing those pages took 3.4 % of a farm
 /// render's CPU (perf, `tessera render cornell-box`); with 4 KiB pages it is ≈ 0.1 %.
+/// Wrapped in a counter of the bytes held (`bench::heap`), for the memory `tessera-bench bvh`
+/// reports per phase.
 #[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+static ALLOCATOR: tessera_server::bench::heap::Counting<mimalloc::MiMalloc> = tessera_server::bench::heap::Counting(mimalloc::MiMalloc);
 
 fn main() -> anyhow::Result<()> {
+    tessera_server::bench::heap::installed();
     let cmd = Cli::parse().cmd;
     tessera_server::say!("{}", tessera_server::bench::host::describe());
     match cmd {

@@ -12,9 +12,9 @@
 //!   makes the scene about 2¹² units across, where 1e-4 is below f32 resolution.
 use crate::tracer::ray::{MACHINE_EPSILON, Ray};
 use glam::{DVec3, Vec3, Vec3A};
-use build::{WIDE_STACK, kept, tree_scale, tree_triangles, wide_depth, wide_source, to_wide};
+use build::{WIDE_STACK, kept, tree_scale, tree_triangle, tree_triangles, wide_depth, wide_source, to_wide};
 use packet::{Packets, WatertightRay, for_packets, intersect_triangle};
-use obvhs::{BvhBuildParams, bvh2::Bvh2, cwbvh::CwBvh, ray::RayHit, triangle::Triangle};
+use obvhs::{BvhBuildParams, bvh2::Bvh2, cwbvh::CwBvh, ray::RayHit};
 use std::time::Duration;
 pub use stats::WalkCounts;
 use stats::Tally;
@@ -61,41 +61,49 @@ impl Accel {
     /// The tree over every non-[degenerate](triangle_normal) triangle: those have no area
     /// f32 can resolve, and rounding in the hit test could only give them false hits.
     pub fn build(tris: &[[Vec3; 3]], kind: BvhKind) -> Accel {
-        let mut accel = Accel::build_refittable(tris, kind);
-        accel.refit = None;
-        accel
+        Accel::build_with(tris, kind, false)
     }
 
     /// [`Accel::build`], keeping what [`Accel::refit`] needs (the binary tree: about 96 bytes
     /// per triangle more).
     pub fn build_refittable(tris: &[[Vec3; 3]], kind: BvhKind) -> Accel {
+        Accel::build_with(tris, kind, true)
+    }
+
+    /// The memory a build holds at once is most of a worker's peak on a large scene, so each
+    /// part goes as soon as it has served: obvhs's copy of the triangles (48 bytes each) after
+    /// the binary build, before the conversion to the wide tree allocates its own (the build's
+    /// high point), and the binary tree before the wide nodes are made, unless a refit needs it.
+    fn build_with(tris: &[[Vec3; 3]], kind: BvhKind, refittable: bool) -> Accel {
         let keep = kept(tris);
         let scale = tree_scale(keep.iter().map(|&i| &tris[i as usize]));
         if keep.is_empty() {
-            return Accel { tree: Tree::Empty, tris: Packets::new(&[]), prim_ids: Vec::new(), scale, refit: None, avx2: false };
+            return Accel { tree: Tree::Empty, tris: Packets::new(std::iter::empty()), prim_ids: Vec::new(), scale, refit: None, avx2: false };
         }
-        let obvhs_tris = tree_triangles(tris, &keep, scale);
         let params = BvhBuildParams::medium_build();
-        let mut build_time = Duration::default();
+        let binary = || obvhs::bvh2::builder::build_bvh2_from_tris(&tree_triangles(tris, &keep, scale), params, &mut Duration::default());
         let (tree, bvh2) = match kind {
             BvhKind::Wide => {
                 // A wide tree is walked with a fixed 32-entry stack (ours in accel_wide.rs, like
                 // obvhs's); a deeper tree would overflow it and silently drop nodes and hits. Pathological geometry (found by fuzzing) builds deeper
                 // trees: those get the binary tree, whose traversal stack grows.
                 let build = || {
-                    let bvh2 = wide_source(&obvhs_tris, params);
+                    let bvh2 = wide_source(&tree_triangles(tris, &keep, scale), params);
                     (to_wide(&bvh2, params), bvh2)
                 };
                 match std::panic::catch_unwind(std::panic::AssertUnwindSafe(build)) {
-                    Ok((bvh, bvh2)) if wide_depth(&bvh) < WIDE_STACK => (Tree::wide(bvh, &obvhs_tris), Some(bvh2)),
-                    _ => (Tree::Binary(obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time)), None),
+                    Ok((bvh, bvh2)) if wide_depth(&bvh) < WIDE_STACK => {
+                        let bvh2 = refittable.then_some(bvh2);
+                        (Tree::wide(bvh, |p| tree_triangle(&tris[keep[p] as usize], scale).aabb()), bvh2)
+                    }
+                    _ => (Tree::Binary(binary()), None),
                 }
             }
-            BvhKind::Binary => (Tree::Binary(obvhs::bvh2::builder::build_bvh2_from_tris(&obvhs_tris, params, &mut build_time)), None),
+            BvhKind::Binary => (Tree::Binary(binary()), None),
         };
         let refit = match (&tree, bvh2) {
             (Tree::Wide(..), Some(bvh2)) => Some(refit::RefitBase { keep: keep.clone(), bvh2 }),
-            (Tree::Binary(b), _) => Some(refit::RefitBase { keep: keep.clone(), bvh2: b.clone() }),
+            (Tree::Binary(b), _) if refittable => Some(refit::RefitBase { keep: keep.clone(), bvh2: b.clone() }),
             _ => None,
         };
         Accel::assemble(tree, tris, &keep, scale, refit)
@@ -105,13 +113,12 @@ impl Accel {
         let slots = match &tree {
             Tree::Wide(_, slots) => slots,
             Tree::Binary(b) => &b.primitive_indices,
-            Tree::Empty => return Accel { tree, tris: Packets::new(&[]), prim_ids: Vec::new(), scale, refit: None, avx2: false },
+            Tree::Empty => return Accel { tree, tris: Packets::new(std::iter::empty()), prim_ids: Vec::new(), scale, refit: None, avx2: false },
         };
         // Padding slots (`layout::PAD`) are never tested: a zero triangle and index fill them.
         let prim_ids: Vec<u32> = slots.iter().map(|&k| if k == layout::PAD { layout::PAD } else { keep[k as usize] }).collect();
-        let verts: Vec<[Vec3; 3]> =
-            prim_ids.iter().map(|&i| if i == layout::PAD { [Vec3::ZERO; 3] } else { tris[i as usize].map(|v| v * scale) }).collect();
-        Accel { tree, tris: Packets::new(&verts), prim_ids, scale, refit, avx2: avx2::detected() }
+        let verts = prim_ids.iter().map(|&i| if i == layout::PAD { [Vec3::ZERO; 3] } else { tris[i as usize].map(|v| v * scale) });
+        Accel { tree, tris: Packets::new(verts), prim_ids, scale, refit, avx2: avx2::detected() }
     }
 
     /// Closest hit with 0 < t < t_max.
@@ -250,10 +257,11 @@ impl Accel {
 }
 
 impl Tree {
-    /// The wide tree `bvh` over `tris` (tree space, as its primitive indices number them).
-    fn wide(mut bvh: CwBvh, tris: &[Triangle]) -> Tree {
+    /// The wide tree `bvh`; `prim_box(p)`: the tree-space box of the triangle its primitive
+    /// indices call p.
+    fn wide(mut bvh: CwBvh, prim_box: impl Fn(usize) -> obvhs::aabb::Aabb) -> Tree {
         layout::pack_leaves(&mut bvh);
-        let nodes = node::Node::of_tree(&bvh, tris);
+        let nodes = node::Node::of_tree(&bvh, prim_box);
         Tree::Wide(nodes, bvh.primitive_indices)
     }
 }

@@ -17,10 +17,12 @@ pub(super) fn kept(tris: &[[Vec3; 3]]) -> Vec<u32> {
 
 /// The caller's triangles `keep`, scaled into tree space, as obvhs triangles.
 pub(super) fn tree_triangles(tris: &[[Vec3; 3]], keep: &[u32], scale: f32) -> Vec<Triangle> {
-    keep.iter()
-        .map(|&i| &tris[i as usize])
-        .map(|t| Triangle { v0: Vec3A::from(t[0] * scale), v1: Vec3A::from(t[1] * scale), v2: Vec3A::from(t[2] * scale) })
-        .collect()
+    keep.iter().map(|&i| tree_triangle(&tris[i as usize], scale)).collect()
+}
+
+/// One triangle scaled into tree space, as obvhs takes it.
+pub(super) fn tree_triangle(t: &[Vec3; 3], scale: f32) -> Triangle {
+    Triangle { v0: Vec3A::from(t[0] * scale), v1: Vec3A::from(t[1] * scale), v2: Vec3A::from(t[2] * scale) }
 }
 
 /// The binary tree obvhs's `build_cwbvh_from_tris` converts (the same steps, without spatial

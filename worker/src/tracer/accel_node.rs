@@ -29,7 +29,6 @@ use glam::{BVec4A, Vec4};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::{CwBvh, node::CwBvhNode};
 use obvhs::ray::Ray;
-use obvhs::triangle::Triangle;
 
 /// A node as the walk reads it: its child boxes in tree space, one row of eight planes (two SIMD
 /// vectors, lane i of vector h is child slot 4h + i) per axis and side (row 2·axis holds the low
@@ -52,9 +51,9 @@ pub(super) struct Node {
 
 impl Node {
     /// Every node of the tree, its child boxes tight around the triangles below each child
-    /// (`tris` in tree space, indexed as `bvh.primitive_indices` holds them). Empty slots keep
-    /// an empty box.
-    pub(super) fn of_tree(bvh: &CwBvh, tris: &[Triangle]) -> Vec<Node> {
+    /// (`prim_box(p)`: the tree-space box of the triangle `bvh.primitive_indices` calls p).
+    /// Empty slots keep an empty box.
+    pub(super) fn of_tree(bvh: &CwBvh, prim_box: impl Fn(usize) -> Aabb) -> Vec<Node> {
         let mut nodes: Vec<Node> = bvh.nodes.iter().map(Node::empty_with_links).collect();
         let mut node_box = vec![Aabb::INVALID; bvh.nodes.len()];
         // Children before parents: the reverse of a depth-first order from the root.
@@ -67,7 +66,7 @@ impl Node {
                     let (first, count) = node.child_primitives(child);
                     let meta = node.child_meta[child];
                     nodes[i].leaf_bits[child / 4][child % 4] = (u32::from(meta >> 5) << (meta & 0b1_1111)) as f32;
-                    (first..first + count).map(|slot| tris[bvh.primitive_indices[slot as usize] as usize].aabb()).fold(Aabb::INVALID, |a, b| a.union(&b))
+                    (first..first + count).map(|slot| prim_box(bvh.primitive_indices[slot as usize] as usize)).fold(Aabb::INVALID, |a, b| a.union(&b))
                 };
                 nodes[i].set(child, &aabb);
                 node_box[i] = node_box[i].union(&aabb);

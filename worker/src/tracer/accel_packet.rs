@@ -196,8 +196,23 @@ pub(super) struct Packets {
 }
 
 impl Packets {
-    pub(super) fn new(tris: &[[Vec3; 3]]) -> Packets {
-        Packets { packets: tris.chunks(4).map(Packet::new).collect() }
+    /// The triangles of `tris`, slot by slot, without a copy of them all first (36 bytes a
+    /// triangle: on a million, 35 MiB less at the end of a build).
+    pub(super) fn new(tris: impl ExactSizeIterator<Item = [Vec3; 3]>) -> Packets {
+        let mut packets = Vec::with_capacity(tris.len().div_ceil(4));
+        let (mut four, mut n) = ([[Vec3::ZERO; 3]; 4], 0);
+        for t in tris {
+            four[n] = t;
+            n += 1;
+            if n == 4 {
+                packets.push(Packet::new(&four));
+                n = 0;
+            }
+        }
+        if n > 0 {
+            packets.push(Packet::new(&four[..n]));
+        }
+        Packets { packets }
     }
 
     pub(super) fn triangle(&self, slot: usize) -> [Vec3; 3] {

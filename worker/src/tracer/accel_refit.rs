@@ -36,7 +36,7 @@ impl Accel {
                 if wide_depth(&wide) >= WIDE_STACK {
                     return None;
                 }
-                Tree::wide(wide, &obvhs_tris)
+                Tree::wide(wide, |p| obvhs_tris[p].aabb())
             }
             Tree::Binary(_) => Tree::Binary(bvh2.clone()),
             Tree::Empty => return None,
