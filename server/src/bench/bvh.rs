@@ -62,6 +62,8 @@ pub struct BvhBench {
 
 pub fn run(b: &BvhBench) -> anyhow::Result<()> {
     // Random rays start anywhere in the geometry's box (for the field: the spheres', not the light's).
+    // The global thread pool's own allocations are not the scene's: start it first.
+    rayon::current_num_threads();
     let start = heap::live();
     let (scene, build, label, ray_box, mesh_bytes) = match &b.scene {
         Some(name) => {
@@ -90,7 +92,7 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
         build,
         rayon::current_num_threads()
     );
-    say_heap(start, mesh_bytes, scene.mesh.len());
+    say_heap(start, mesh_bytes, &scene);
     let rays = random_rays(b.rays, ray_box);
     let trace = |r: &Ray| accel.intersect(r, f32::INFINITY).is_some() as u64;
     let t1 = Instant::now();
@@ -229,26 +231,42 @@ fn random_rays(count: usize, (lo, hi): (Vec3, Vec3)) -> Vec<Ray> {
 }
 
 /// What the scene holds on the heap and how high the heap went while it was built (counted from
-/// `start`, the bytes held before the study; `mesh`: the generated mesh's bytes, held before the
-/// build started).
-fn say_heap(start: usize, mesh: Option<usize>, triangles: usize) {
+/// `start`, the bytes held before the study; `generated`: the generated mesh's bytes, held
+/// before the build started).
+fn say_heap(start: usize, generated: Option<usize>, scene: &Scene) {
     if !heap::counting() {
         return;
     }
-    let mib = |bytes: usize| bytes as f64 / f64::from(1 << 20);
-    let per = |bytes: usize| bytes as f64 / triangles.max(1) as f64;
-    let (held, peak) = (heap::live().saturating_sub(start), heap::peak().saturating_sub(start));
-    match mesh {
-        Some(mesh) => crate::say!(
-            "heap: the mesh {:.0} MiB ({:.0} B per triangle); the scene built on it adds {:.0} MiB ({:.0} B per triangle: BVH, triangles in packets, face normals, lights); the build peaked at {:.0} MiB with the mesh ({:.0} B per triangle)",
-            mib(mesh),
+    let per = |bytes: usize| bytes as f64 / scene.mesh.len().max(1) as f64;
+    let (held, peak, mesh) = (heap::live().saturating_sub(start), heap::peak().saturating_sub(start), scene.mesh.heap_bytes());
+    let rest = held.saturating_sub(mesh);
+    match generated {
+        Some(generated) => crate::say!(
+            "heap: the mesh {} as generated ({:.0} B per triangle), {} in the scene ({:.0} B per triangle: positions, normals, materials; no UVs); the rest of the scene {} ({:.0} B per triangle: BVH, triangles in packets, face normals, lights); the build peaked at {} with the mesh ({:.0} B per triangle)",
+            amount(generated),
+            per(generated),
+            amount(mesh),
             per(mesh),
-            mib(held - mesh),
-            per(held - mesh),
-            mib(peak),
+            amount(rest),
+            per(rest),
+            amount(peak),
             per(peak)
         ),
-        None => crate::say!("heap: the loaded scene holds {:.0} MiB ({:.0} B per triangle); loading and building peaked at {:.0} MiB", mib(held), per(held), mib(peak)),
+        None => crate::say!(
+            "heap: the loaded scene holds {} ({:.0} B per triangle; its mesh {:.0} B); loading and building peaked at {}",
+            amount(held),
+            per(held),
+            per(mesh),
+            amount(peak)
+        ),
+    }
+}
+
+/// `bytes` in MiB, or KiB for a small scene.
+fn amount(bytes: usize) -> String {
+    match bytes {
+        b if b >= 10 << 20 => format!("{:.0} MiB", b as f64 / f64::from(1 << 20)),
+        b => format!("{:.0} KiB", b as f64 / 1024.0),
     }
 }
 

@@ -119,3 +119,14 @@ fn a_texture_in_colour_and_data_slots_is_decoded_once_per_colour_space() {
     let decoded = scene.textures[colour.texture as usize].sample(Vec2::splat(0.5)).x;
     assert!((linear - 188.0 / 255.0).abs() < 1e-6 && (decoded - 0.5029).abs() < 2e-3, "{linear} {decoded}");
 }
+
+#[test]
+fn a_mesh_without_texture_coordinates_stores_none() {
+    let with = load_bytes(&glb(&strip_json("", ""), &strip_bin()), None).unwrap();
+    assert_eq!(with.mesh.uvs.len(), 2, "the strip's TEXCOORD_0 is kept");
+    let json = strip_json("", "").replace(r#""POSITION":0,"TEXCOORD_0":1"#, r#""POSITION":0"#);
+    let without = load_bytes(&glb(&json, &strip_bin()), None).unwrap();
+    assert!(without.mesh.uvs.is_empty(), "all-zero UVs take no memory");
+    assert_eq!(without.mesh.uvs_of(1), [[Vec2::ZERO; 3]; 2], "and still read as zero");
+    assert_eq!(without.mesh.positions, with.mesh.positions);
+}

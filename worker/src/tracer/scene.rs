@@ -17,7 +17,9 @@ pub struct Mesh {
     pub positions: Vec<[Vec3; 3]>,
     /// Unit shading normals per corner (the face normal where the file has none).
     pub normals: Vec<[Vec3; 3]>,
-    /// Texture coordinates per corner for UV sets 0 and 1 (zero where absent).
+    /// Texture coordinates per corner for UV sets 0 and 1 (zero where absent), or empty when
+    /// every one is zero: a scene takes them away then ([`Mesh::drop_zero_uvs`]), 48 bytes a
+    /// triangle of a mesh without texture coordinates. Read them with [`Mesh::uvs_of`].
     pub uvs: Vec<[[Vec2; 3]; 2]>,
     /// `TANGENT` per corner (xyz, handedness w), or empty when no primitive has one; zero
     /// for triangles of primitives without (normal maps then derive tangents from UVs).
@@ -32,6 +34,28 @@ impl Mesh {
 
     pub fn is_empty(&self) -> bool {
         self.positions.is_empty()
+    }
+
+    /// Triangle `i`'s corner UVs, both sets (zero when the mesh has none).
+    #[inline]
+    pub fn uvs_of(&self, i: usize) -> [[Vec2; 3]; 2] {
+        self.uvs.get(i).copied().unwrap_or_default()
+    }
+
+    /// Empties `uvs` when every coordinate is zero, as a mesh without texture coordinates has
+    /// them (what [`Mesh::uvs_of`] returns does not change).
+    pub fn drop_zero_uvs(&mut self) {
+        if self.uvs.iter().flatten().flatten().all(|uv| *uv == Vec2::ZERO) {
+            self.uvs = Vec::new();
+        }
+    }
+
+    /// Bytes the mesh's vectors hold on the heap.
+    pub fn heap_bytes(&self) -> usize {
+        fn held<T>(v: &Vec<T>) -> usize {
+            v.capacity() * size_of::<T>()
+        }
+        held(&self.positions) + held(&self.normals) + held(&self.uvs) + held(&self.tangents) + held(&self.material)
     }
 
     /// Appends a triangle with flat normals and no UVs.
@@ -99,6 +123,9 @@ impl Scene {
         punctual: Vec<Light>,
         kind: BvhKind,
     ) -> Scene {
+        let mut mesh = mesh;
+        // Before the build, whose peak is most of a large scene's memory.
+        mesh.drop_zero_uvs();
         let accel = Accel::build(&mesh.positions, kind);
         Scene::with_accel(mesh, materials, textures.into(), cameras, punctual, accel)
     }
@@ -113,6 +140,8 @@ impl Scene {
         punctual: Vec<Light>,
         accel: Accel,
     ) -> Scene {
+        let mut mesh = mesh;
+        mesh.drop_zero_uvs();
         let mut lights = Vec::new();
         let mut tri_light = vec![NO_LIGHT; mesh.len()];
         let mut means = vec![None; textures.len()];
@@ -122,7 +151,7 @@ impl Scene {
                 && let Some(mut l) = Light::triangle(i as u32, tri, m.emission, m.double_sided) {
                     if let Some(t) = m.emissive_texture {
                         let mean = *means[t.texture as usize].get_or_insert_with(|| textures[t.texture as usize].mean_rgb());
-                        l = l.with_texture(EmissiveTexture { texture: t, uvs: mesh.uvs[i], mean });
+                        l = l.with_texture(EmissiveTexture { texture: t, uvs: mesh.uvs_of(i), mean });
                     }
                     tri_light[i] = lights.len() as u32;
                     lights.push(l);

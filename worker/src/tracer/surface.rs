@@ -100,7 +100,7 @@ impl Integrator<'_> {
 
     /// Both UV sets at barycentrics `b` of triangle `i`.
     pub(crate) fn uvs(&self, i: usize, b: [f32; 3]) -> [Vec2; 2] {
-        self.scene.mesh.uvs[i].map(|t| t[0] * b[0] + t[1] * b[1] + t[2] * b[2])
+        self.scene.mesh.uvs_of(i).map(|t| t[0] * b[0] + t[1] * b[1] + t[2] * b[2])
     }
 
     /// The shading normal `ns` (front side) perturbed by the material's normal map.
@@ -109,7 +109,7 @@ impl Integrator<'_> {
         let tangent = match mesh.tangents.get(i) {
             Some(t) if t[0].w != 0.0 => normal_map::tangent_from_attribute(t, b, ns),
             _ => {
-                let uv = mesh.uvs[i][nt.texture.tex_coord.min(1) as usize].map(|uv| nt.texture.transform.apply(uv));
+                let uv = mesh.uvs_of(i)[nt.texture.tex_coord.min(1) as usize].map(|uv| nt.texture.transform.apply(uv));
                 normal_map::tangent_from_uvs(&mesh.positions[i], &uv, ns)
             }
         };
