@@ -191,6 +191,11 @@ pub struct FrameStatus {
     pub builds: u32,
     pub refits: u32,
     pub prepare_ms: f64,
+    /// The largest peak resident memory (bytes) that workers reported with this frame's results:
+    /// what rendering it needed on one worker, at most (a worker's peak may date from an earlier,
+    /// larger scene). Null until a worker that reports memory returns a result.
+    #[serde(default)]
+    pub worker_peak_rss_bytes: Option<u64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]

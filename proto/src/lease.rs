@@ -81,4 +81,13 @@ pub struct WorkerInfo {
     /// renderer, or their blocklist keeps it off); absent when it is busy or there is no work.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub idle_reason: Option<String>,
+    /// Bytes its process held resident when it last returned a result; absent until one
+    /// arrives, or from workers that do not report it (not on Linux, or older than the field).
+    /// In `tessera render` and `serve --local-workers` the process is the coordinator's too.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rss_bytes: Option<u64>,
+    /// The most its process has held resident since it started (the kernel's high-water mark),
+    /// as of its last result; absent like `rss_bytes`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub peak_rss_bytes: Option<u64>,
 }

@@ -60,6 +60,7 @@ fn frame_status(job: &JobRun, index: usize) -> FrameStatus {
         builds: prep.builds,
         refits: prep.refits,
         prepare_ms: prep.ms,
+        worker_peak_rss_bytes: (prep.peak_rss_bytes > 0).then_some(prep.peak_rss_bytes),
     }
 }
 

@@ -135,8 +135,12 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
     b.click("#nav-workers").await;
     let units = b.until("the worker's row", 20, r##"const r = document.querySelector("#workers tbody tr"); return r && r.cells[4].textContent;"##).await;
     assert_eq!(units, "2", "one 64×64 tile × two 16-spp batches");
-    let renderer = b.js(r##"return document.querySelector("#workers tbody tr").cells[7].textContent;"##).await;
+    let renderer = b.js(r##"return document.querySelector("#workers tbody tr").cells[8].textContent;"##).await;
     assert_eq!(renderer, tessera_worker::renderer_id(), "the worker's renderer id");
+    // Linux workers report their resident memory with each result.
+    let memory = b.js(r##"return document.querySelector("#workers tbody tr").cells[7].textContent;"##).await;
+    let memory = memory.as_str().unwrap();
+    assert!(memory.contains("MiB (peak ") && memory.ends_with("MiB)"), "the worker's memory: {memory}");
 
     // A worker of another renderer beside a job this worker renders: its row says why it idles.
     let other = "tessera 0.0.0 src:000000000000 libm:00000000";

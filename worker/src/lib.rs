@@ -8,6 +8,8 @@
 //!   everything it reads and reports errors that name the offending mesh, primitive or material.
 //! - [`client`]: the worker process: registers with a coordinator, leases units, renders them on a
 //!   dedicated thread pool with heartbeats, and uploads the partial sums (tokio + reqwest).
+//! - [`memory`]: the process's resident memory (now and peak), which the worker reports with
+//!   each result.
 //! - [`renderer_id`]: the name a worker gives its renderer (source hash and libm probe), so a
 //!   coordinator keeps each job on workers that compute the same bits.
 //!
@@ -18,6 +20,7 @@
 // `!(x > 0.0)` is deliberate throughout the tracer: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 pub mod client;
+pub mod memory;
 mod renderer_id;
 pub mod scene;
 pub mod tracer;

@@ -9,21 +9,16 @@
 //! scene, where Mitsuba 3 is installed, also through its traversal, Embree
 //! ([`crate::bench::embree`]).
 //!
-//! The field is generated here (no mesh file is shipped): `spheres`² spheres on a grid, each a
-//! UV sphere of `segments` × `segments / 2` quads whose radius wobbles by ±15 %
-//! (sin 5θ · sin 7φ), so the triangles are small, numerous and not axis-aligned. For the render
-//! the spheres are grey Lambert under a square area light that overhangs the field.
+//! The field is generated ([`crate::bench::field`]; no mesh file is shipped).
+use crate::bench::field::{bounds, field_parts, sphere_field};
 use crate::bench::heap;
 use crate::bench::overhead::settings;
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::path::PathBuf;
 use std::time::Instant;
-use tessera_worker::tracer::camera::Camera;
-use tessera_worker::tracer::material::Material;
 use tessera_worker::tracer::ray::Ray;
-use tessera_worker::tracer::scene::Mesh;
 use tessera_worker::tracer::{Scene, render_tile};
 use crate::bench::same_rays;
 use crate::bench::stock::StockBvh;
@@ -111,8 +106,8 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
         rayon::current_num_threads()
     );
     let (traced, secs) = render_one_core(&scene, b.size, b.spp)?;
-    if let Some(kib) = peak_rss_kib() {
-        crate::say!("peak resident memory, the scene built, traced and rendered (what a worker holds, plus the {} MiB of random rays): {:.0} MiB", (rays.len() * size_of::<Ray>()) >> 20, kib as f64 / 1024.0);
+    if let Some(m) = tessera_worker::memory::process_memory() {
+        crate::say!("peak resident memory, the scene built, traced and rendered (what a worker holds, plus the {} MiB of random rays): {:.0} MiB", (rays.len() * size_of::<Ray>()) >> 20, m.peak_rss_bytes as f64 / f64::from(1 << 20));
     }
     let stock = StockBvh::new(&scene.mesh.positions);
     let (stock_hits, stock_s) = stock.trace(&rays);
@@ -139,75 +134,6 @@ pub(crate) fn render_one_core(scene: &Scene, size: u32, spp: u32) -> anyhow::Res
     let t = Instant::now();
     let sums = pool.install(|| render_tile(scene, &settings, settings.full_frame(), 0..spp)).map_err(anyhow::Error::msg)?;
     Ok((sums.rays, t.elapsed().as_secs_f64()))
-}
-
-/// The field as a scene's parts: grey Lambert spheres on a grey ground, a square light
-/// (radiance 3) at y = 6 facing down, both overhanging the field by a tenth on every side, and a
-/// camera at a corner of the field looking across it.
-fn field_parts(tris: Vec<[Vec3; 3]>) -> (Mesh, Vec<Material>, Camera) {
-    let size = bounds(&tris).1.x.max(1.0);
-    let mut mesh = Mesh::default();
-    // Exactly the space the triangles take, so the heap figures are the mesh's, not a Vec's slack.
-    let count = tris.len() + 4;
-    (mesh.positions.reserve_exact(count), mesh.normals.reserve_exact(count), mesh.uvs.reserve_exact(count), mesh.material.reserve_exact(count));
-    tris.into_iter().for_each(|t| mesh.push_flat(t, 0));
-    let (lo, hi) = (-0.1 * size, 1.1 * size);
-    let at = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
-    // (+x) × (+z) = −y: the light's two triangles face the field, at y = 6 …
-    mesh.push_flat([at(lo, 6.0, lo), at(hi, 6.0, lo), at(lo, 6.0, hi)], 1);
-    mesh.push_flat([at(hi, 6.0, lo), at(hi, 6.0, hi), at(lo, 6.0, hi)], 1);
-    // … and the ground's face up, at y = 0, so that paths bounce between it and the spheres.
-    mesh.push_flat([at(lo, 0.0, lo), at(lo, 0.0, hi), at(hi, 0.0, lo)], 0);
-    mesh.push_flat([at(hi, 0.0, lo), at(lo, 0.0, hi), at(hi, 0.0, hi)], 0);
-    let mut light = Material::lambert("light", Vec3::ZERO);
-    light.emission = Vec3::splat(3.0);
-    let camera = look_at(Vec3::new(-0.1 * size, 3.0, -0.1 * size), Vec3::new(0.5 * size, 0.5, 0.5 * size), 0.8);
-    (mesh, vec![Material::lambert("spheres", Vec3::splat(0.6)), light], camera)
-}
-
-/// A pinhole camera at `eye` looking at `target` (+y up), vertical field of view `yfov`.
-fn look_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
-    let f = (target - eye).normalize();
-    let right = f.cross(Vec3::Y).normalize();
-    let to_world = Mat4::from_cols(right.extend(0.0), right.cross(f).extend(0.0), (-f).extend(0.0), eye.extend(1.0));
-    Camera::pinhole("field", to_world, yfov)
-}
-
-/// The axis-aligned box around the triangles.
-fn bounds(tris: &[[Vec3; 3]]) -> (Vec3, Vec3) {
-    tris.iter().flatten().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)))
-}
-
-const SEGMENTS: usize = 128;
-
-/// Triangles of one sphere: `SEGMENTS` × `SEGMENTS / 2` quads, two triangles each.
-const PER_SPHERE: usize = SEGMENTS * SEGMENTS;
-
-fn spheres_per_side(triangles: usize) -> usize {
-    ((triangles as f64 / PER_SPHERE as f64).sqrt().ceil() as usize).max(1)
-}
-
-fn sphere_field(triangles: usize) -> Vec<[Vec3; 3]> {
-    let n = spheres_per_side(triangles);
-    let count = triangles.div_ceil(PER_SPHERE).max(1);
-    let mut tris = Vec::with_capacity(count * PER_SPHERE);
-    for k in 0..count {
-        let centre = Vec3::new((k % n) as f32 * 2.0 + 1.0, 1.0, (k / n) as f32 * 2.0 + 1.0);
-        let point = |i: usize, j: usize| {
-            let (theta, phi) = (PI * j as f32 / (SEGMENTS / 2) as f32, 2.0 * PI * i as f32 / SEGMENTS as f32);
-            let r = 0.8 * (1.0 + 0.15 * (5.0 * theta).sin() * (7.0 * phi).sin());
-            centre + r * Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin())
-        };
-        for j in 0..SEGMENTS / 2 {
-            for i in 0..SEGMENTS {
-                let (a, b, c, d) = (point(i, j), point(i + 1, j), point(i, j + 1), point(i + 1, j + 1));
-                // Wound to face outwards: surfaces are black from behind (Conventions, ARCHITECTURE.md).
-                tris.push([a, b, c]);
-                tris.push([b, d, c]);
-            }
-        }
-    }
-    tris
 }
 
 /// Rays from random points of the box `(lo, hi)` in uniformly random directions (a fixed
@@ -242,7 +168,7 @@ fn say_heap(start: usize, generated: Option<usize>, scene: &Scene) {
     let rest = held.saturating_sub(mesh);
     match generated {
         Some(generated) => crate::say!(
-            "heap: the mesh {} as generated ({:.0} B per triangle), {} in the scene ({:.0} B per triangle: positions, normals, materials; no UVs); the rest of the scene {} ({:.0} B per triangle: BVH, triangles in packets, face normals, lights); the build peaked at {} with the mesh ({:.0} B per triangle)",
+            "heap: the mesh {} as generated ({:.0} B per triangle), {} in the scene ({:.0} B per triangle: positions, normals (one per triangle when flat), materials; no UVs); the rest of the scene {} ({:.0} B per triangle: BVH, triangles in packets, face normals, lights); the build peaked at {} with the mesh ({:.0} B per triangle)",
             amount(generated),
             per(generated),
             amount(mesh),
@@ -268,10 +194,4 @@ fn amount(bytes: usize) -> String {
         b if b >= 10 << 20 => format!("{:.0} MiB", b as f64 / f64::from(1 << 20)),
         b => format!("{:.0} KiB", b as f64 / 1024.0),
     }
-}
-
-/// VmHWM from /proc/self/status (Linux), in KiB.
-fn peak_rss_kib() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    status.lines().find_map(|l| l.strip_prefix("VmHWM:")?.trim().strip_suffix("kB")?.trim().parse().ok())
 }

@@ -4,6 +4,7 @@ pub mod accuracy;
 pub mod bvh;
 pub mod cpu;
 pub mod embree;
+pub mod field;
 pub mod frames;
 pub mod heap;
 pub mod host;

@@ -19,6 +19,8 @@
 //!                              traversal on the same rays), a path-traced render's rays per second
 //!                              against both, the heap the mesh and the scene hold and the
 //!                              build's peak, peak resident memory (tessera_server::bench::bvh).
+//! `tessera-bench field`      — writes that generated field as binary glTF, to render it as a job
+//!                              (tessera_server::bench::field).
 //! `tessera-bench frames`     — an animation job on local workers with frame affinity on and off:
 //!                              time per frame and the scene builds/refits workers reported.
 //! `tessera-bench mitsuba`    — time to quality (relMSE × seconds) on the Cornell box against
@@ -63,6 +65,17 @@ enum Cmd {
     /// peak memory; then the render's own rays, logged, traced alone through both BVHs, with our
     /// walk's node and packet tests per ray.
     Bvh(tessera_server::bench::bvh::BvhBench),
+    /// Writes the generated field `bvh` studies as binary glTF (positions only: 36 bytes a
+    /// triangle), so it can be rendered as a job: `tessera render field.glb` then reports the
+    /// workers' scene load + BVH build time and peak memory.
+    Field {
+        /// Triangles to generate (rounded to whole spheres).
+        #[arg(long, default_value_t = 1_000_000)]
+        triangles: usize,
+        /// Where to write the .glb.
+        #[arg(short, long, default_value = "field.glb")]
+        output: std::path::PathBuf,
+    },
     /// An animation job (frames 0..N−1) on local workers with frame affinity on and off.
     Frames(tessera_server::bench::frames::FramesBench),
     /// Time to quality (relMSE × seconds) on the Cornell box, Tessera vs Mitsuba 3 in one run.
@@ -104,6 +117,7 @@ fn main() -> anyhow::Result<()> {
         Cmd::Roundtrips { seconds, workers, tile, separate_leases } => roundtrips(seconds, workers, tile, !separate_leases),
         Cmd::Effects { scene, size, spp, repeats } => effects(&scene, size, spp, repeats),
         Cmd::Accuracy(options) => tessera_server::bench::accuracy::run(options).map(|_| ()),
+        Cmd::Field { triangles, output } => write_field(triangles, &output),
         Cmd::Frames(b) => tessera_server::bench::frames::run(&b),
         Cmd::Bvh(b) => tessera_server::bench::bvh::run(&b),
         Cmd::Mitsuba(b) => tessera_server::bench::mitsuba::run(&b).map(|_| ()),
@@ -217,4 +231,13 @@ async fn fake_worker(i: usize, http: reqwest::Client, url: String, template: Vec
         done += 1;
     }
     Ok(done)
+}
+
+fn write_field(triangles: usize, output: &std::path::Path) -> anyhow::Result<()> {
+    use tessera_server::bench::field;
+    let spheres = field::sphere_field(triangles);
+    let glb = field::field_glb(&spheres);
+    std::fs::write(output, &glb).map_err(|e| anyhow::anyhow!("writing {}: {e}", output.display()))?;
+    tessera_server::say!("{}: {} triangles (the spheres, a ground and a light), {:.1} MiB", output.display(), spheres.len() + 4, glb.len() as f64 / f64::from(1 << 20));
+    Ok(())
 }

@@ -51,8 +51,10 @@ async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> 
     let samples = job.progress.samples_done * (a.job.width as f64 * a.job.height as f64) * job.frames.len().max(1) as f64;
     // What the workers reported for loading the scene and building (or refitting) its BVH.
     let prepare_ms: f64 = job.frames.iter().map(|f| f.prepare_ms).sum();
+    // One process holds coordinator and workers here, so this is the whole render's peak.
+    let peak_mib = job.frames.iter().filter_map(|f| f.worker_peak_rss_bytes).max().map_or_else(|| "unknown".into(), |b| format!("{:.0} MiB", b as f64 / f64::from(1 << 20)));
     super::say(format_args!(
-        "{}: {}x{} at {:.0} spp in {:.2} s ({:.0} samples/s); estimated relMSE {:.3e}; dropped {} non-finite samples; max sample weight {:.3}; effects: {}; scene load + BVH build {:.1} ms",
+        "{}: {}x{} at {:.0} spp in {:.2} s ({:.0} samples/s); estimated relMSE {:.3e}; dropped {} non-finite samples; max sample weight {:.3}; effects: {}; scene load + BVH build {:.1} ms; peak memory {}",
         files_label(&files),
         a.job.width,
         a.job.height,
@@ -63,7 +65,8 @@ async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> 
         job.dropped_samples,
         job.max_sample_weight,
         job.effects.join(", "),
-        prepare_ms
+        prepare_ms,
+        peak_mib
     ))?;
     // The pixels alone: equal for any two renders of these settings by one renderer id.
     super::say(format_args!("pixels sha256: {}", files_digest(&files)?))?;

@@ -35,6 +35,14 @@ export function count(n) {
   return `${Math.round(n)}`;
 }
 
+/** 1536 → "1.5 KiB"; null or absent → "—". */
+export function bytes(n) {
+  if (n === null || n === undefined || !isFinite(n)) return "—";
+  const units = [[2 ** 30, "GiB"], [2 ** 20, "MiB"], [2 ** 10, "KiB"]];
+  for (const [f, u] of units) if (n >= f) return `${(n / f).toPrecision(3)} ${u}`;
+  return `${n} B`;
+}
+
 export const percent = (f) => `${Math.floor(Math.min(1, Math.max(0, f)) * 100)}%`;
 
 /** A bundled name as is; a sha256 id shortened. */

@@ -107,6 +107,7 @@ class JobView {
 
   facts(job) {
     const r = job.request;
+    const frames = job.frames || [];
     const rows = [
       ["Scene", fmt.sceneLabel(r.scene)],
       ["Size", fmt.size(r)],
@@ -125,6 +126,10 @@ class JobView {
       ["Renderer", (job.renderers || []).join(" + ") || "—"],
       ["Dropped samples", String(job.dropped_samples)],
       ["Largest sample weight", job.max_sample_weight.toPrecision(3)],
+      // What workers reported with their results: scene load + BVH build (or refit) time summed
+      // over units, and the largest peak resident memory of a worker process.
+      ["Scene load + build", fmt.duration(frames.reduce((s, f) => s + f.prepare_ms, 0) / 1000)],
+      ["Worker peak memory", fmt.bytes(Math.max(...frames.map((f) => f.worker_peak_rss_bytes ?? -Infinity)))],
       ["Submitted", new Date(job.created_unix_ms).toLocaleString()],
     ];
     $("j-facts").replaceChildren(...rows.flatMap(([k, v]) => [fmt.el("dt", { text: k }), fmt.el("dd", { text: v })]));

@@ -43,6 +43,7 @@ function show(workers) {
       fmt.el("td", { class: "num", text: String(w.units_done) }),
       fmt.el("td", { class: `num${w.failures ? " warn" : ""}`, text: String(w.failures) }),
       fmt.el("td", { text: `${fmt.duration(w.last_seen_ms_ago / 1000)} ago` }),
+      fmt.el("td", { class: "num", text: w.rss_bytes === undefined ? "—" : `${fmt.bytes(w.rss_bytes)} (peak ${fmt.bytes(w.peak_rss_bytes)})` }),
       fmt.el("td", { class: "mono", text: w.renderer || "—" }),
     ),
   );

@@ -1,6 +1,6 @@
 //! The worker protocol: register, lease, heartbeat, result, release (see tessera_proto::lease).
 use crate::error::{AppError, Json};
-use crate::scheduler::{Accepted, IdleReason, PrepareKind, ResultError};
+use crate::scheduler::{Accepted, IdleReason, PrepareKind, ResultError, WorkerMemory};
 use crate::state::AppState;
 use axum::body::Bytes;
 use axum::extract::{Path, Query, State};
@@ -62,6 +62,8 @@ pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<WorkerInfo>> {
                 last_seen_ms_ago: now.saturating_sub(w.last_seen),
                 renderer: w.renderer.clone(),
                 idle_reason: w.current.is_none().then(|| s.idle_reason(id, now)).flatten().map(|why| why.to_string()),
+                rss_bytes: w.memory.map(|m| m.rss_bytes),
+                peak_rss_bytes: w.memory.map(|m| m.peak_rss_bytes),
             })
             .collect(),
     )
@@ -175,6 +177,9 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, Query(q)
         if let Some((kind, ms)) = prepare_report(&headers) {
             sched.note_prepare(&id, kind, ms);
         }
+        if let Some(memory) = memory_report(&headers) {
+            sched.note_memory(&id, memory);
+        }
         let t0 = std::time::Instant::now();
         let outcome = sched.complete(&id, sums, st.now());
         st.counters.merge_nanos.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
@@ -231,4 +236,12 @@ fn prepare_report(headers: &HeaderMap) -> Option<(PrepareKind, f64)> {
     };
     let ms = headers.get("x-tessera-prepare-ms").and_then(|v| v.to_str().ok()?.parse::<f64>().ok()).filter(|m| m.is_finite() && *m >= 0.0);
     Some((kind, ms.unwrap_or(0.0)))
+}
+
+/// The worker process's resident memory from the optional `x-tessera-rss` and
+/// `x-tessera-peak-rss` headers of a result (bytes); like the prepare report, ignored unless both
+/// are there and readable.
+fn memory_report(headers: &HeaderMap) -> Option<WorkerMemory> {
+    let bytes = |name: &str| headers.get(name)?.to_str().ok()?.parse::<u64>().ok();
+    Some(WorkerMemory { rss_bytes: bytes("x-tessera-rss")?, peak_rss_bytes: bytes("x-tessera-peak-rss")? })
 }

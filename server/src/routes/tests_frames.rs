@@ -64,6 +64,40 @@ async fn a_frame_range_renders_every_frame_and_serves_each_one() {
     }
 }
 
+/// A result with the worker's memory in `x-tessera-rss` / `x-tessera-peak-rss` (None: without).
+async fn put_with_memory(api: &Api, l: &tessera_proto::Lease, memory: Option<(&str, &str)>) {
+    let mut req = axum::http::Request::builder()
+        .method(Method::PUT)
+        .uri(format!("/v1/leases/{}/result", l.lease_id))
+        .header("content-type", tessera_proto::sums::CONTENT_TYPE);
+    if let Some((rss, peak)) = memory {
+        req = req.header("x-tessera-rss", rss).header("x-tessera-peak-rss", peak);
+    }
+    api.send(req.body(axum::body::Body::from(sums_for(l, 0.5).encode())).unwrap()).await.expect(StatusCode::NO_CONTENT);
+}
+
+#[tokio::test]
+async fn memory_reported_with_results_shows_on_the_worker_and_the_frame() {
+    let api = Api::new("frames-memory");
+    let w = register(&api).await;
+    let id = api.submit(&three_frames()).await["id"].as_str().unwrap().to_string();
+    assert!(api.get("/v1/workers").await.json()[0].get("rss_bytes").is_none(), "nothing reported yet");
+    let mut by_frame = std::collections::BTreeMap::new();
+    for report in [Some(("100", "300")), None, Some(("5", "not a number"))] {
+        let l = lease(&api, &w).await;
+        by_frame.insert(l.frame, report);
+        put_with_memory(&api, &l, report).await;
+    }
+    // The unreadable report is ignored: the worker keeps the last readable one.
+    let w = api.get("/v1/workers").await.json()[0].clone();
+    assert_eq!((w["rss_bytes"].as_u64(), w["peak_rss_bytes"].as_u64()), (Some(100), Some(300)));
+    let job = api.job(&id).await;
+    for f in job["frames"].as_array().unwrap() {
+        let want = if by_frame[&(f["frame"].as_u64().unwrap() as u32)] == Some(("100", "300")) { json!(300) } else { json!(null) };
+        assert_eq!(f["worker_peak_rss_bytes"], want, "{f}");
+    }
+}
+
 #[tokio::test]
 async fn a_still_has_one_frame_and_keeps_its_file_name() {
     let api = Api::new("frames-still");

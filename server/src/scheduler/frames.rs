@@ -28,12 +28,22 @@ pub enum PrepareKind {
     Refit,
 }
 
+/// A worker process's resident memory in bytes, as it reports with a result.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WorkerMemory {
+    pub rss_bytes: u64,
+    /// Its high-water mark since the process started (so possibly from an earlier scene).
+    pub peak_rss_bytes: u64,
+}
+
 /// Scene preparation for one frame, summed over the workers' reports.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FramePrepare {
     pub builds: u32,
     pub refits: u32,
     pub ms: f64,
+    /// The largest peak resident set workers reported with this frame's results (0: none).
+    pub peak_rss_bytes: u64,
 }
 
 /// What the scheduler knows about where workers are, for choosing a frame.
@@ -131,6 +141,13 @@ impl JobRun {
             PrepareKind::Cached => {}
         }
         p.ms += ms.max(0.0);
+    }
+
+    pub fn note_peak_rss(&mut self, tile: usize, bytes: u64) {
+        let f = self.frame_index_of(tile);
+        if let Some(p) = self.prepare.get_mut(f) {
+            p.peak_rss_bytes = p.peak_rss_bytes.max(bytes);
+        }
     }
 }
 

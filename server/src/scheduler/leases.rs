@@ -1,6 +1,6 @@
 //! A lease's life: issued to a worker, kept alive by heartbeats, completed with a result,
 //! released, expired by `tick`, or revoked when its job no longer wants the unit.
-use super::frames::{self, PrepareKind};
+use super::frames::{self, PrepareKind, WorkerMemory};
 use super::job::{Contributor, JobRun};
 use super::renderers::{Admission, RendererGate};
 use super::{Accepted, ResultError, Scheduler};
@@ -121,6 +121,19 @@ impl Scheduler {
             && let Some(job) = self.jobs.get_mut(&l.job_seq)
         {
             job.note_prepare(l.tile, kind, ms);
+        }
+    }
+
+    /// Records the resident memory the worker holding `lease_id` reported with its result: the
+    /// worker's latest figures, and the peak for the unit's frame.
+    pub fn note_memory(&mut self, lease_id: &str, memory: WorkerMemory) {
+        let Some(l) = self.leases.get(lease_id) else { return };
+        let memory = WorkerMemory { peak_rss_bytes: memory.peak_rss_bytes.max(memory.rss_bytes), ..memory };
+        if let Some(w) = self.workers.get_mut(&l.worker) {
+            w.memory = Some(memory);
+        }
+        if let Some(job) = self.jobs.get_mut(&l.job_seq) {
+            job.note_peak_rss(l.tile, memory.peak_rss_bytes);
         }
     }
 

@@ -42,7 +42,7 @@ mod tests_renderers;
 mod tile;
 
 pub use durable::{JobCheckpoint, JobRecord, RestoredTile, TileCheckpoint, TileMark};
-pub use frames::{FramePrepare, PrepareKind};
+pub use frames::{FramePrepare, PrepareKind, WorkerMemory};
 pub use idle::IdleReason;
 pub use job::{Failures, JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP, Contributor};
 pub use tile::TileRun;
@@ -84,6 +84,8 @@ pub struct WorkerRec {
     pub lapsed: bool,
     /// The job (seq) and frame index of its last unit: its scene for that frame is built.
     pub last_frame: Option<(u64, usize)>,
+    /// What it last reported holding in memory (None until a result says).
+    pub memory: Option<WorkerMemory>,
 }
 
 pub struct Scheduler {
@@ -142,7 +144,7 @@ impl Scheduler {
     pub fn register(&mut self, name: &str, threads: u32, renderer: &str, now: u64) -> String {
         self.next_worker += 1;
         let id = format!("w{}-{}", self.epoch, self.next_worker);
-        let rec = WorkerRec { name: name.to_string(), threads, renderer: renderer.to_string(), last_seen: now, units_done: 0, failures: 0, current: None, lapsed: false, last_frame: None };
+        let rec = WorkerRec { name: name.to_string(), threads, renderer: renderer.to_string(), last_seen: now, units_done: 0, failures: 0, current: None, lapsed: false, last_frame: None, memory: None };
         self.workers.insert(id.clone(), rec);
         id
     }

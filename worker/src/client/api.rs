@@ -51,6 +51,9 @@ pub(crate) enum UploadAnswer {
 /// Result upload headers: how the unit's scene was prepared, and in how many milliseconds.
 pub(crate) const PREPARE: &str = "x-tessera-prepare";
 pub(crate) const PREPARE_MS: &str = "x-tessera-prepare-ms";
+/// Result upload headers: the worker process's resident memory now and at its peak, in bytes.
+pub(crate) const RSS: &str = "x-tessera-rss";
+pub(crate) const PEAK_RSS: &str = "x-tessera-peak-rss";
 /// On a 204 to a lease request: why jobs with units left refuse this worker.
 pub(crate) const IDLE_REASON: &str = "x-tessera-idle-reason";
 
@@ -167,17 +170,21 @@ impl Api {
     }
 
     /// Uploads a unit's sums, saying how its scene was prepared (`x-tessera-prepare`: cached,
-    /// build or refit; `x-tessera-prepare-ms`: milliseconds, 0 when cached). With `next`, the
-    /// answer also leases the worker its next unit (`?next=true`).
+    /// build or refit; `x-tessera-prepare-ms`: milliseconds, 0 when cached) and what the process
+    /// holds in memory (`x-tessera-rss`, `x-tessera-peak-rss`: bytes; not sent off Linux). With
+    /// `next`, the answer also leases the worker its next unit (`?next=true`).
     pub(crate) async fn upload(&self, lease_id: &str, body: bytes::Bytes, prepared: Prepared, next: bool) -> Result<UploadAnswer, CallError> {
         let query = if next { "?next=true" } else { "" };
         let path = format!("/v1/leases/{}/result{query}", segment(lease_id));
-        let rb = self
+        let mut rb = self
             .request(Method::PUT, &path, UPLOAD_TIMEOUT)
             .header(reqwest::header::CONTENT_TYPE, tessera_proto::sums::CONTENT_TYPE)
             .header(PREPARE, prepared.how.name())
-            .header(PREPARE_MS, prepared.ms.to_string())
-            .body(body);
+            .header(PREPARE_MS, prepared.ms.to_string());
+        if let Some(m) = crate::memory::process_memory() {
+            rb = rb.header(RSS, m.rss_bytes).header(PEAK_RSS, m.peak_rss_bytes);
+        }
+        let rb = rb.body(body);
         let resp = send(rb, "result upload").await?;
         match resp.status() {
             StatusCode::NO_CONTENT => {

@@ -383,6 +383,11 @@ async fn frames_of_an_animation_refit_and_report_how_their_scene_was_prepared() 
         assert!(if how == "cached" { *ms == 0.0 } else { *ms > 0.0 && ms.is_finite() }, "{id}: {how} in {ms} ms");
     }
     assert_eq!(log.scene_downloads, 2, "each file once");
+    #[cfg(target_os = "linux")]
+    for (rss, peak) in &log.memory {
+        let (rss, peak): (u64, u64) = (rss.parse().expect("x-tessera-rss in bytes"), peak.parse().expect("x-tessera-peak-rss in bytes"));
+        assert!(rss > 0 && peak >= rss, "the process's resident set {rss} and peak {peak}");
+    }
     let seq = crate::scene::Sequence::parse(&std::fs::read(animated_path()).unwrap(), None).unwrap();
     for ((id, _, body, _), n) in log.results.iter().zip([0u32, 3, 3, 1]) {
         let got = PartialSums::decode(body).unwrap();

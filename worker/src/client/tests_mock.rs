@@ -43,6 +43,8 @@ pub(super) struct Log {
     pub(super) unauthorized: u32,
     /// (lease id, x-tessera-prepare, x-tessera-prepare-ms) of every result upload.
     pub(super) prepared: Vec<(String, String, f64)>,
+    /// (x-tessera-rss, x-tessera-peak-rss) of every result upload, as sent (empty when absent).
+    pub(super) memory: Vec<(String, String)>,
     /// Answer a merged result that asks for the next lease (`?next=true`) with the script's next
     /// step, as the coordinator does; otherwise such results are answered 204 (no work now).
     pub(super) leases_with_results: bool,
@@ -139,6 +141,7 @@ async fn result(State(mock): State<Arc<Mock>>, Path(id): Path<String>, RawQuery(
         let header = |name: &str| headers.get(name).and_then(|v| v.to_str().ok()).unwrap_or("").to_owned();
         let ms = header("x-tessera-prepare-ms").parse().unwrap_or(f64::NAN);
         log.prepared.push((id.clone(), header("x-tessera-prepare"), ms));
+        log.memory.push((header("x-tessera-rss"), header("x-tessera-peak-rss")));
         log.slow_results.contains(&id)
     };
     if slow {

@@ -207,21 +207,18 @@ fn add_mesh(
                 Some(ns) => corners.map(|i| (normal_matrix * ns[i as usize]).normalize_or(face)),
                 None => [face; 3],
             };
-            let t = uvs.each_ref().map(|set| match set {
-                Some(set) => corners.map(|i| set[i as usize]),
-                None => [Vec2::ZERO; 3],
+            let t = (uvs[0].is_some() || uvs[1].is_some()).then(|| {
+                uvs.each_ref().map(|set| match set {
+                    Some(set) => corners.map(|i| set[i as usize]),
+                    None => [Vec2::ZERO; 3],
+                })
             });
             // Tangents lie in the surface: they transform like positions (w, the handedness,
             // flips with a mirroring transform). Zero marks "none" (normal maps use UVs).
-            let tg = match &tangents {
-                Some(ts) => corners.map(|i| tangent(ts[i as usize], world, mirrored)),
-                None => [Vec4::ZERO; 3],
-            };
+            let tg = tangents.as_ref().map(|ts| corners.map(|i| tangent(ts[i as usize], world, mirrored)));
             positions64.push(p64);
-            out.normals.push(n);
-            out.tangents.push(tg);
-            out.uvs.push(t);
-            out.material.push(material);
+            // Flat normals, absent UVs and tangents take no memory (see tracer::mesh).
+            out.push_attributes(n, t, tg, material);
         }
     }
     Ok(())

@@ -75,7 +75,9 @@ pub struct Parsed {
 }
 
 impl Parsed {
-    pub fn build(self) -> Scene {
+    pub fn build(mut self) -> Scene {
+        // Before the build, whose peak is most of a large scene's memory.
+        self.mesh.compact();
         let accel = match self.refittable {
             true => Accel::build_refittable(&self.mesh.positions, BvhKind::Wide),
             false => Accel::build(&self.mesh.positions, BvhKind::Wide),

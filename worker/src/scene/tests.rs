@@ -64,7 +64,7 @@ pub fn triangle_gltf(with_camera: bool, extra_material: &str) -> String {
 fn a_minimal_scene_loads_with_flat_normals() {
     let scene = load_bytes(triangle_gltf(true, "").as_bytes(), None).unwrap();
     assert_eq!(scene.mesh.len(), 1);
-    assert_eq!(scene.mesh.normals[0], [glam::Vec3::Z; 3]);
+    assert_eq!(scene.mesh.normals_of(0), [glam::Vec3::Z; 3]);
     assert_eq!(scene.cameras.len(), 1);
 }
 

@@ -36,7 +36,7 @@ fn check_strip(scene: &crate::tracer::Scene) {
         // Winding was swapped to undo the mirror, so faces still point at the camera (+Z).
         let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
         assert!(n.z > 0.0, "triangle {i} faces +Z");
-        assert_eq!(scene.mesh.normals[i][0], Vec3::Z);
+        assert_eq!(scene.mesh.normals_of(i)[0], Vec3::Z);
     }
     assert!(scene.mesh.uvs[0][0].contains(&Vec2::new(0.0, 1.0)));
 }
@@ -129,4 +129,39 @@ fn a_mesh_without_texture_coordinates_stores_none() {
     assert!(without.mesh.uvs.is_empty(), "all-zero UVs take no memory");
     assert_eq!(without.mesh.uvs_of(1), [[Vec2::ZERO; 3]; 2], "and still read as zero");
     assert_eq!(without.mesh.positions, with.mesh.positions);
+}
+
+#[test]
+fn a_flat_mesh_keeps_one_normal_per_triangle_and_reads_the_same() {
+    let flat = load_bytes(&glb(&strip_json("", ""), &strip_bin()), None).unwrap();
+    assert!(flat.mesh.normals.is_empty() && flat.mesh.flat_normals.len() == 2, "12 bytes a triangle, not 36");
+    assert_eq!(flat.mesh.normals_of(1), [Vec3::Z; 3]);
+    assert!(flat.mesh.tangents.is_empty());
+}
+
+#[test]
+fn a_mesh_stores_corners_only_from_the_first_triangle_that_needs_them() {
+    let mut mesh = crate::tracer::scene::Mesh::default();
+    mesh.push_flat([Vec3::ZERO, Vec3::X, Vec3::Y], 0);
+    mesh.push_flat([Vec3::ZERO, Vec3::Y, Vec3::X], 0);
+    let flat = [mesh.normals_of(0), mesh.normals_of(1)];
+    assert_eq!((mesh.normals.len(), mesh.flat_normals.len(), mesh.uvs.len()), (0, 2, 0));
+    // Equal as numbers, not as bits: a sign of zero can decide a shading frame's orientation.
+    let mut n = flat[1];
+    n[2].x = -n[2].x;
+    let uv = [[Vec2::ONE; 3], [Vec2::ZERO; 3]];
+    mesh.positions.push([Vec3::ZERO, Vec3::Z, Vec3::X]);
+    mesh.push_attributes(n, Some(uv), None, 1);
+    assert_eq!((mesh.normals.len(), mesh.flat_normals.len(), mesh.uvs.len(), mesh.tangents.len()), (3, 0, 3, 0));
+    assert_eq!([mesh.normals_of(0), mesh.normals_of(1), mesh.normals_of(2)], [flat[0], flat[1], n], "the same normals read back");
+    assert_eq!([mesh.uvs_of(0), mesh.uvs_of(2)], [[[Vec2::ZERO; 3]; 2], uv]);
+    mesh.push_flat([Vec3::ZERO, Vec3::X, Vec3::Y], 0);
+    assert_eq!((mesh.normals.len(), mesh.uvs.len()), (4, 4), "per corner once needed");
+    assert_eq!(mesh.material, [0, 0, 1, 0]);
+
+    // A mesh whose vectors were filled directly compacts to the same reading.
+    let mut direct = crate::tracer::scene::Mesh { normals: vec![flat[0], flat[1]], uvs: vec![[[Vec2::ZERO; 3]; 2]; 2], ..Default::default() };
+    direct.compact();
+    assert_eq!((direct.normals.len(), direct.flat_normals.len(), direct.uvs.len()), (0, 2, 0));
+    assert_eq!([direct.normals_of(0), direct.normals_of(1)], flat);
 }

@@ -28,8 +28,8 @@ pub enum BvhKind {
 
 enum Tree {
     /// The nodes of obvhs's wide tree as our walk reads them (tight f32 child boxes,
-    /// `accel_node.rs`) and its primitive slots (`accel_layout.rs`).
-    Wide(Vec<node::Node>, Vec<u32>),
+    /// `accel_node.rs`); its primitive slots (`accel_layout.rs`) live on as `prim_ids`.
+    Wide(Vec<node::Node>),
     Binary(Bvh2),
     Empty,
 }
@@ -82,7 +82,7 @@ impl Accel {
         }
         let params = BvhBuildParams::medium_build();
         let binary = || obvhs::bvh2::builder::build_bvh2_from_tris(&tree_triangles(tris, &keep, scale), params, &mut Duration::default());
-        let (tree, bvh2) = match kind {
+        let (tree, wide_slots, bvh2) = match kind {
             BvhKind::Wide => {
                 // A wide tree is walked with a fixed 32-entry stack (ours in accel_wide.rs, like
                 // obvhs's); a deeper tree would overflow it and silently drop nodes and hits. Pathological geometry (found by fuzzing) builds deeper
@@ -94,26 +94,29 @@ impl Accel {
                 match std::panic::catch_unwind(std::panic::AssertUnwindSafe(build)) {
                     Ok((bvh, bvh2)) if wide_depth(&bvh) < WIDE_STACK => {
                         let bvh2 = refittable.then_some(bvh2);
-                        (Tree::wide(bvh, |p| tree_triangle(&tris[keep[p] as usize], scale).aabb()), bvh2)
+                        let (tree, slots) = Tree::wide(bvh, |p| tree_triangle(&tris[keep[p] as usize], scale).aabb());
+                        (tree, Some(slots), bvh2)
                     }
-                    _ => (Tree::Binary(binary()), None),
+                    _ => (Tree::Binary(binary()), None, None),
                 }
             }
-            BvhKind::Binary => (Tree::Binary(binary()), None),
+            BvhKind::Binary => (Tree::Binary(binary()), None, None),
         };
         let refit = match (&tree, bvh2) {
             (Tree::Wide(..), Some(bvh2)) => Some(refit::RefitBase { keep: keep.clone(), bvh2 }),
             (Tree::Binary(b), _) if refittable => Some(refit::RefitBase { keep: keep.clone(), bvh2: b.clone() }),
             _ => None,
         };
-        Accel::assemble(tree, tris, &keep, scale, refit)
+        Accel::assemble(tree, wide_slots, tris, &keep, scale, refit)
     }
 
-    fn assemble(tree: Tree, tris: &[[Vec3; 3]], keep: &[u32], scale: f32, refit: Option<refit::RefitBase>) -> Accel {
-        let slots = match &tree {
-            Tree::Wide(_, slots) => slots,
-            Tree::Binary(b) => &b.primitive_indices,
-            Tree::Empty => return Accel { tree, tris: Packets::new(std::iter::empty()), prim_ids: Vec::new(), scale, refit: None, avx2: false },
+    /// `wide_slots`: a wide tree's primitive slots (a binary tree keeps its own).
+    fn assemble(tree: Tree, wide_slots: Option<Vec<u32>>, tris: &[[Vec3; 3]], keep: &[u32], scale: f32, refit: Option<refit::RefitBase>) -> Accel {
+        let slots = match (&tree, &wide_slots) {
+            (Tree::Wide(_), Some(slots)) => slots,
+            (Tree::Binary(b), _) => &b.primitive_indices,
+            (Tree::Wide(_), None) => unreachable!("a wide tree comes with its slots"),
+            (Tree::Empty, _) => return Accel { tree, tris: Packets::new(std::iter::empty()), prim_ids: Vec::new(), scale, refit: None, avx2: false },
         };
         // Padding slots (`layout::PAD`) are never tested: a zero triangle and index fill them.
         let prim_ids: Vec<u32> = slots.iter().map(|&k| if k == layout::PAD { layout::PAD } else { keep[k as usize] }).collect();
@@ -165,7 +168,7 @@ impl Accel {
             }
         };
         match &self.tree {
-            Tree::Wide(nodes, _) => wide::walk::<AVX, _>(nodes, obvhs_ray, tally, |r, base, bits, tally| {
+            Tree::Wide(nodes) => wide::walk::<AVX, _>(nodes, obvhs_ray, tally, |r, base, bits, tally| {
                 for_packets(base, bits, |packet, lanes| {
                     tally.packet(lanes);
                     for (lane, t, b1, b2) in self.tris.test(&wt, packet, lanes, r.tmax).iter() {
@@ -213,7 +216,7 @@ impl Accel {
         let Some((obvhs_ray, wt)) = self.tree_ray(ray, t_max) else { return false };
         let blocks = |slot: usize, t: f32, b1: f32, b2: f32, tmax: f32| t < tmax && keep(self.prim_ids[slot], b1, b2);
         match &self.tree {
-            Tree::Wide(nodes, _) => {
+            Tree::Wide(nodes) => {
                 let mut found = false;
                 wide::walk::<AVX, _>(nodes, obvhs_ray, tally, |r, base, bits, tally| {
                     found = for_packets(base, bits, |packet, lanes| {
@@ -257,12 +260,12 @@ impl Accel {
 }
 
 impl Tree {
-    /// The wide tree `bvh`; `prim_box(p)`: the tree-space box of the triangle its primitive
-    /// indices call p.
-    fn wide(mut bvh: CwBvh, prim_box: impl Fn(usize) -> obvhs::aabb::Aabb) -> Tree {
+    /// The wide tree `bvh` and its primitive slots; `prim_box(p)`: the tree-space box of the
+    /// triangle its primitive indices call p.
+    fn wide(mut bvh: CwBvh, prim_box: impl Fn(usize) -> obvhs::aabb::Aabb) -> (Tree, Vec<u32>) {
         layout::pack_leaves(&mut bvh);
         let nodes = node::Node::of_tree(&bvh, prim_box);
-        Tree::Wide(nodes, bvh.primitive_indices)
+        (Tree::Wide(nodes), bvh.primitive_indices)
     }
 }
 

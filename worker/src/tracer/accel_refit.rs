@@ -30,19 +30,20 @@ impl Accel {
         let obvhs_tris = tree_triangles(tris, &base.keep, scale);
         let mut bvh2 = base.bvh2.clone();
         refit_boxes(&mut bvh2, &obvhs_tris);
-        let tree = match &self.tree {
+        let (tree, wide_slots) = match &self.tree {
             Tree::Wide(..) => {
                 let wide = to_wide(&bvh2, BvhBuildParams::medium_build());
                 if wide_depth(&wide) >= WIDE_STACK {
                     return None;
                 }
-                Tree::wide(wide, |p| obvhs_tris[p].aabb())
+                let (tree, slots) = Tree::wide(wide, |p| obvhs_tris[p].aabb());
+                (tree, Some(slots))
             }
-            Tree::Binary(_) => Tree::Binary(bvh2.clone()),
+            Tree::Binary(_) => (Tree::Binary(bvh2.clone()), None),
             Tree::Empty => return None,
         };
         let keep = base.keep.clone();
-        Some(Accel::assemble(tree, tris, &keep, scale, Some(RefitBase { keep: keep.clone(), bvh2 })))
+        Some(Accel::assemble(tree, wide_slots, tris, &keep, scale, Some(RefitBase { keep: keep.clone(), bvh2 })))
     }
 
 }

@@ -155,7 +155,8 @@ fn mask_scene(alpha: f32, texture_alpha: Option<[f32; 2]>) -> Scene {
     quad(&mut mesh, Vec3::new(0.0, 0.0, -1.0), Vec3::X * 2.0, Vec3::Y * 2.0, 0);
     // u runs across x: the left half of the quad reads texel 0, the right half texel 1.
     for tri in 0..2 {
-        mesh.uvs[tri][0] = mesh.positions[tri].map(|p| glam::Vec2::new((p.x + 2.0) / 4.0, 0.5));
+        let uv = mesh.positions[tri].map(|p| glam::Vec2::new((p.x + 2.0) / 4.0, 0.5));
+        mesh.set_uvs(tri, 0, uv);
     }
     quad(&mut mesh, Vec3::new(0.0, 0.0, -3.0), Vec3::X * 4.0, Vec3::Y * 4.0, 1);
     let mut textures = vec![];

@@ -18,6 +18,7 @@ pub mod roulette;
 pub mod rows;
 pub mod sampler;
 pub mod sampling;
+pub mod mesh;
 pub mod scene;
 mod surface;
 pub mod texture;

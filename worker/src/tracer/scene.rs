@@ -8,65 +8,9 @@ use crate::tracer::effects::Effects;
 use crate::tracer::light::{EmissiveTexture, Light};
 use crate::tracer::material::Material;
 use crate::tracer::texture::Texture;
-use glam::{Vec2, Vec3, Vec4};
+use glam::Vec3;
+pub use crate::tracer::mesh::Mesh;
 use std::sync::Arc;
-
-/// Triangle soup in world space; index `i` in every vector describes triangle `i`.
-#[derive(Clone, Debug, Default)]
-pub struct Mesh {
-    pub positions: Vec<[Vec3; 3]>,
-    /// Unit shading normals per corner (the face normal where the file has none).
-    pub normals: Vec<[Vec3; 3]>,
-    /// Texture coordinates per corner for UV sets 0 and 1 (zero where absent), or empty when
-    /// every one is zero: a scene takes them away then ([`Mesh::drop_zero_uvs`]), 48 bytes a
-    /// triangle of a mesh without texture coordinates. Read them with [`Mesh::uvs_of`].
-    pub uvs: Vec<[[Vec2; 3]; 2]>,
-    /// `TANGENT` per corner (xyz, handedness w), or empty when no primitive has one; zero
-    /// for triangles of primitives without (normal maps then derive tangents from UVs).
-    pub tangents: Vec<[Vec4; 3]>,
-    pub material: Vec<u32>,
-}
-
-impl Mesh {
-    pub fn len(&self) -> usize {
-        self.positions.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.positions.is_empty()
-    }
-
-    /// Triangle `i`'s corner UVs, both sets (zero when the mesh has none).
-    #[inline]
-    pub fn uvs_of(&self, i: usize) -> [[Vec2; 3]; 2] {
-        self.uvs.get(i).copied().unwrap_or_default()
-    }
-
-    /// Empties `uvs` when every coordinate is zero, as a mesh without texture coordinates has
-    /// them (what [`Mesh::uvs_of`] returns does not change).
-    pub fn drop_zero_uvs(&mut self) {
-        if self.uvs.iter().flatten().flatten().all(|uv| *uv == Vec2::ZERO) {
-            self.uvs = Vec::new();
-        }
-    }
-
-    /// Bytes the mesh's vectors hold on the heap.
-    pub fn heap_bytes(&self) -> usize {
-        fn held<T>(v: &Vec<T>) -> usize {
-            v.capacity() * size_of::<T>()
-        }
-        held(&self.positions) + held(&self.normals) + held(&self.uvs) + held(&self.tangents) + held(&self.material)
-    }
-
-    /// Appends a triangle with flat normals and no UVs.
-    pub fn push_flat(&mut self, v: [Vec3; 3], material: u32) {
-        let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
-        self.positions.push(v);
-        self.normals.push([n; 3]);
-        self.uvs.push([[Vec2::ZERO; 3]; 2]);
-        self.material.push(material);
-    }
-}
 
 pub struct Scene {
     pub mesh: Mesh,
@@ -124,8 +68,7 @@ impl Scene {
         kind: BvhKind,
     ) -> Scene {
         let mut mesh = mesh;
-        // Before the build, whose peak is most of a large scene's memory.
-        mesh.drop_zero_uvs();
+        mesh.compact();
         let accel = Accel::build(&mesh.positions, kind);
         Scene::with_accel(mesh, materials, textures.into(), cameras, punctual, accel)
     }
@@ -141,7 +84,7 @@ impl Scene {
         accel: Accel,
     ) -> Scene {
         let mut mesh = mesh;
-        mesh.drop_zero_uvs();
+        mesh.compact();
         let mut lights = Vec::new();
         let mut tri_light = vec![NO_LIGHT; mesh.len()];
         let mut means = vec![None; textures.len()];

@@ -63,7 +63,7 @@ impl Integrator<'_> {
         let v = &mesh.positions[i];
         let p = ErrPoint::from_barycentric(v, b[0], b[1], b[2]);
         let mut ng = self.scene.face_normals[i];
-        let nv = &mesh.normals[i];
+        let nv = mesh.normals_of(i);
         let mut ns = (nv[0] * b[0] + nv[1] * b[1] + nv[2] * b[2]).normalize_or(ng);
         let wo_world = -ray.dir.normalize();
         let material = &self.scene.materials[mesh.material[i] as usize];

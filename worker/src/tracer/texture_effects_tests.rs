@@ -22,7 +22,8 @@ fn facing_quad(mesh: &mut Mesh, material: u32) {
     let first = mesh.len();
     quad(mesh, Vec3::new(0.0, 0.0, -1.0), Vec3::X * 2.0, Vec3::Y * 2.0, material);
     for tri in first..mesh.len() {
-        mesh.uvs[tri][0] = mesh.positions[tri].map(|p| Vec2::new((p.x + 2.0) / 4.0, (2.0 - p.y) / 4.0));
+        let uv = mesh.positions[tri].map(|p| Vec2::new((p.x + 2.0) / 4.0, (2.0 - p.y) / 4.0));
+        mesh.set_uvs(tri, 0, uv);
     }
 }
 
@@ -135,7 +136,8 @@ fn light_sampling_of_a_textured_emitter_agrees_with_bsdf_hits() {
     let first = mesh.len();
     quad(&mut mesh, Vec3::Y, Vec3::NEG_Z, Vec3::X, 1);
     for tri in first..mesh.len() {
-        mesh.uvs[tri][1] = mesh.positions[tri].map(|p| Vec2::new((p.x + 1.0) / 2.0, (p.z + 1.0) / 2.0));
+        let uv = mesh.positions[tri].map(|p| Vec2::new((p.x + 1.0) / 2.0, (p.z + 1.0) / 2.0));
+        mesh.set_uvs(tri, 1, uv);
     }
     let tex = texture(2, vec![Vec4::ONE, Vec4::splat(0.02)], Wrap::ClampToEdge);
     let light = Material { emission: Vec3::splat(3.0), emissive_texture: Some(TextureRef::new(0, 1)), ..Material::lambert("light", Vec3::ZERO) };
