@@ -83,7 +83,7 @@ pub struct WorkerInfo {
     pub idle_reason: Option<String>,
     /// Bytes its process held resident when it last returned a result; absent until one
     /// arrives, or from workers that do not report it (not on Linux, or older than the field).
-    /// In `tessera render` and `serve --local-workers` the process is the coordinator's too.
+    /// In `tessera render` (coordinator and workers in one process) it is the whole process's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rss_bytes: Option<u64>,
     /// The most its process has held resident since it started (the kernel's high-water mark),
