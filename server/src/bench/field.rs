@@ -71,11 +71,12 @@ pub fn field_parts(spheres: Vec<[Vec3; 3]>) -> (Mesh, Vec<Material>, Camera) {
 pub fn field_glb(spheres: &[[Vec3; 3]]) -> Vec<u8> {
     let around = Surroundings::of(spheres);
     let parts: [&[[Vec3; 3]]; 3] = [spheres, &around.light, &around.ground];
-    let mut bin = Vec::with_capacity(parts.iter().map(|p| p.len() * 36).sum());
+    const TRIANGLE_BYTES: usize = size_of::<[Vec3; 3]>();
+    let mut bin = Vec::with_capacity(parts.iter().map(|p| p.len() * TRIANGLE_BYTES).sum());
     let (mut views, mut accessors) = (Vec::new(), Vec::new());
     for p in parts {
         let (lo, hi) = bounds(p);
-        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": p.len() * 36}));
+        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": p.len() * TRIANGLE_BYTES}));
         accessors.push(json!({"bufferView": accessors.len(), "componentType": 5126, "count": p.len() * 3, "type": "VEC3", "min": lo.to_array(), "max": hi.to_array()}));
         bin.extend(p.iter().flatten().flat_map(|v| v.to_array()).flat_map(f32::to_le_bytes));
     }

@@ -1,6 +1,6 @@
 //! The worker protocol: register, lease, heartbeat, result, release (see tessera_proto::lease).
 use crate::error::{AppError, Json};
-use crate::scheduler::{Accepted, IdleReason, PrepareKind, ResultError, WorkerMemory};
+use crate::scheduler::{Accepted, IdleReason, PrepareKind, ProcessMemory, ResultError};
 use crate::state::AppState;
 use axum::body::Bytes;
 use axum::extract::{Path, Query, State};
@@ -241,7 +241,7 @@ fn prepare_report(headers: &HeaderMap) -> Option<(PrepareKind, f64)> {
 /// The worker process's resident memory from the optional `x-tessera-rss` and
 /// `x-tessera-peak-rss` headers of a result (bytes); like the prepare report, ignored unless both
 /// are there and readable.
-fn memory_report(headers: &HeaderMap) -> Option<WorkerMemory> {
+fn memory_report(headers: &HeaderMap) -> Option<ProcessMemory> {
     let bytes = |name: &str| headers.get(name)?.to_str().ok()?.parse::<u64>().ok();
-    Some(WorkerMemory { rss_bytes: bytes("x-tessera-rss")?, peak_rss_bytes: bytes("x-tessera-peak-rss")? })
+    Some(ProcessMemory { rss_bytes: bytes("x-tessera-rss")?, peak_rss_bytes: bytes("x-tessera-peak-rss")? })
 }

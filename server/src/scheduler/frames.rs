@@ -28,14 +28,6 @@ pub enum PrepareKind {
     Refit,
 }
 
-/// A worker process's resident memory in bytes, as it reports with a result.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct WorkerMemory {
-    pub rss_bytes: u64,
-    /// Its high-water mark since the process started (so possibly from an earlier scene).
-    pub peak_rss_bytes: u64,
-}
-
 /// Scene preparation for one frame, summed over the workers' reports.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FramePrepare {

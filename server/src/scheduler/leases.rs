@@ -1,6 +1,7 @@
 //! A lease's life: issued to a worker, kept alive by heartbeats, completed with a result,
 //! released, expired by `tick`, or revoked when its job no longer wants the unit.
-use super::frames::{self, PrepareKind, WorkerMemory};
+use super::frames::{self, PrepareKind};
+use super::ProcessMemory;
 use super::job::{Contributor, JobRun};
 use super::renderers::{Admission, RendererGate};
 use super::{Accepted, ResultError, Scheduler};
@@ -126,9 +127,9 @@ impl Scheduler {
 
     /// Records the resident memory the worker holding `lease_id` reported with its result: the
     /// worker's latest figures, and the peak for the unit's frame.
-    pub fn note_memory(&mut self, lease_id: &str, memory: WorkerMemory) {
+    pub fn note_memory(&mut self, lease_id: &str, memory: ProcessMemory) {
         let Some(l) = self.leases.get(lease_id) else { return };
-        let memory = WorkerMemory { peak_rss_bytes: memory.peak_rss_bytes.max(memory.rss_bytes), ..memory };
+        let memory = ProcessMemory { peak_rss_bytes: memory.peak_rss_bytes.max(memory.rss_bytes), ..memory };
         if let Some(w) = self.workers.get_mut(&l.worker) {
             w.memory = Some(memory);
         }

@@ -42,7 +42,9 @@ mod tests_renderers;
 mod tile;
 
 pub use durable::{JobCheckpoint, JobRecord, RestoredTile, TileCheckpoint, TileMark};
-pub use frames::{FramePrepare, PrepareKind, WorkerMemory};
+pub use frames::{FramePrepare, PrepareKind};
+/// A worker's resident memory, as it reports with a result (read by `tessera_worker::memory`).
+pub use tessera_worker::memory::ProcessMemory;
 pub use idle::IdleReason;
 pub use job::{Failures, JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP, Contributor};
 pub use tile::TileRun;
@@ -85,7 +87,7 @@ pub struct WorkerRec {
     /// The job (seq) and frame index of its last unit: its scene for that frame is built.
     pub last_frame: Option<(u64, usize)>,
     /// What it last reported holding in memory (None until a result says).
-    pub memory: Option<WorkerMemory>,
+    pub memory: Option<ProcessMemory>,
 }
 
 pub struct Scheduler {

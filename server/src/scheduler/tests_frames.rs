@@ -118,15 +118,15 @@ fn a_frame_keeps_the_largest_peak_and_a_worker_its_latest_report() {
     s.submit(animation("j", &[0, 1]));
     let grants = drain(&mut s, &a, 0);
     let frame0: Vec<_> = grants.iter().filter(|g| g.frame == 0).collect();
-    s.note_memory(&frame0[0].lease_id, WorkerMemory { rss_bytes: 10, peak_rss_bytes: 40 });
+    s.note_memory(&frame0[0].lease_id, ProcessMemory { rss_bytes: 10, peak_rss_bytes: 40 });
     // A resident set above the reported peak (a report read between two kernel updates)
     // raises the peak to it.
-    s.note_memory(&frame0[1].lease_id, WorkerMemory { rss_bytes: 50, peak_rss_bytes: 30 });
-    s.note_memory("no-such-lease", WorkerMemory { rss_bytes: 1 << 40, peak_rss_bytes: 1 << 40 });
+    s.note_memory(&frame0[1].lease_id, ProcessMemory { rss_bytes: 50, peak_rss_bytes: 30 });
+    s.note_memory("no-such-lease", ProcessMemory { rss_bytes: 1 << 40, peak_rss_bytes: 1 << 40 });
     let job = s.job("j").unwrap();
     assert_eq!((job.prepare[0].peak_rss_bytes, job.prepare[1].peak_rss_bytes), (50, 0));
     let (_, w) = s.workers().find(|(id, _)| **id == a).unwrap();
-    assert_eq!(w.memory, Some(WorkerMemory { rss_bytes: 50, peak_rss_bytes: 50 }));
+    assert_eq!(w.memory, Some(ProcessMemory { rss_bytes: 50, peak_rss_bytes: 50 }));
 }
 
 #[test]
