@@ -3,6 +3,7 @@ mod args;
 mod bench;
 mod healthcheck;
 mod job;
+mod purge;
 mod render;
 mod serve;
 mod submit;

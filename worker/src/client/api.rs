@@ -239,7 +239,8 @@ impl Api {
         let resp = send(self.request(Method::GET, &path, SCENE_TIMEOUT), "scene download").await?;
         match resp.status() {
             StatusCode::OK => match resp.bytes().await {
-                Ok(b) => Ok(b.to_vec()),
+                // Without a copy when the body arrived as one buffer.
+                Ok(b) => Ok(Vec::from(b)),
                 Err(e) => Err(CallError::Transient(format!("scene download: {}", chain(&e)))),
             },
             _ => Err(unexpected(resp, "scene download").await),

@@ -1,9 +1,10 @@
-//! What a worker keeps between units: parsed scene files ([`Sequence`]) by scene id, and the
-//! last few frame scenes (with their BVHs) by (scene id, animation, time), so each frame is
-//! built once per worker and the next frame of an animation can refit the last one's BVH.
+//! What a worker keeps between units: parsed scene files ([`Sequence`]) by scene id (a still
+//! file's only until its one scene is made; its animation list, empty, stays), and the last few
+//! frame scenes (with their BVHs) by (scene id, animation, time), so each frame is built once
+//! per worker and the next frame of an animation can refit the last one's BVH.
 //! Scenes that failed to load are remembered too (loading is deterministic), so a broken scene
 //! is not downloaded again for every lease of its job.
-use crate::scene::Sequence;
+use crate::scene::{AnimationInfo, Sequence};
 use crate::tracer::Scene;
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -13,6 +14,8 @@ pub(crate) const FRAMES_KEPT: usize = 4;
 /// Parsed files kept (decoded buffers and textures).
 const SEQUENCES_KEPT: usize = 2;
 const FAILURES_KEPT: usize = 16;
+/// Files whose animation lists are kept (a few bytes each).
+const ANIMATIONS_KEPT: usize = 64;
 
 /// One frame of a scene: the animation played (None: the static pose) and the time in seconds
 /// (as bits, 0 for the static pose).
@@ -49,6 +52,10 @@ impl<K: PartialEq, V: Clone> Lru<K, V> {
         self.entries.iter().rev().find(|(k, _)| matches(k)).map(|(_, v)| v.clone())
     }
 
+    pub(crate) fn remove(&mut self, key: &K) {
+        self.entries.retain(|(k, _)| k != key);
+    }
+
     pub(crate) fn insert(&mut self, key: K, value: V) {
         self.entries.retain(|(k, _)| *k != key);
         self.entries.push_back((key, value));
@@ -61,6 +68,9 @@ impl<K: PartialEq, V: Clone> Lru<K, V> {
 #[derive(Debug)]
 pub(crate) struct SceneCache {
     pub sequences: Lru<String, Arc<Sequence>>,
+    /// Each file's animations, kept after its [`Sequence`] is dropped (a still file's, once its
+    /// one scene is made) so that a lease finds its frame without the file.
+    pub animations: Lru<String, Arc<[AnimationInfo]>>,
     pub frames: Lru<FrameKey, Arc<Scene>>,
     /// Why a scene id (or a frame: its key, formatted) does not load.
     pub failures: Lru<String, String>,
@@ -68,7 +78,7 @@ pub(crate) struct SceneCache {
 
 impl Default for SceneCache {
     fn default() -> SceneCache {
-        SceneCache { sequences: Lru::new(SEQUENCES_KEPT), frames: Lru::new(FRAMES_KEPT), failures: Lru::new(FAILURES_KEPT) }
+        SceneCache { sequences: Lru::new(SEQUENCES_KEPT), animations: Lru::new(ANIMATIONS_KEPT), frames: Lru::new(FRAMES_KEPT), failures: Lru::new(FAILURES_KEPT) }
     }
 }
 

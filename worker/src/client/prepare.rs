@@ -7,6 +7,7 @@ use super::Worker;
 use super::api::CallError;
 use super::cache::FrameKey;
 use super::retry::RETRY;
+use crate::scene::animation::{self, AnimationInfo};
 use crate::scene::{Preparation, Sequence};
 use crate::tracer::Scene;
 use std::sync::Arc;
@@ -57,8 +58,8 @@ impl Worker {
     /// The scene of the lease's frame, and how it was prepared.
     pub(super) async fn frame_scene(&self, lease: &Lease) -> Result<(Arc<Scene>, Prepared), String> {
         let id = lease.scene_id.as_str();
-        let (sequence, parse_time) = self.sequence(id).await?;
-        let animation = sequence.resolve_animation(lease.params.animation.as_deref()).map_err(|e| format!("scene {id}: {e}"))?;
+        let (animations, mut parse_time) = self.animations_of(id).await?;
+        let animation = animation::resolve(&animations, lease.params.animation.as_deref()).map_err(|e| format!("scene {id}: {e}"))?;
         let time_s = frame_time(animation, lease.frame, lease.params.fps)?;
         let key = FrameKey { scene_id: id.to_owned(), animation, time_bits: time_s.to_bits() };
         let failure_key = format!("{key:?}");
@@ -74,6 +75,15 @@ impl Worker {
         if let Some(e) = failed {
             return Err(e);
         }
+        let (sequence, more_parse_time) = self.sequence(id).await?;
+        parse_time += more_parse_time;
+        // A still file makes one scene, which the frame cache keeps: its buffers (most of a
+        // .glb) are dead weight from the moment it is walked, through the BVH build (a large
+        // scene's memory peak) and after.
+        let still = animations.is_empty();
+        if still {
+            self.scenes.lock().expect("scene cache lock").sequences.remove(&id.to_owned());
+        }
         let (pool, cache) = (self.pool.clone(), self.scenes.clone());
         let frame = lease.frame;
         // The cache is filled by the building thread itself, so a frame still lands in it when
@@ -82,6 +92,10 @@ impl Worker {
             let started = Instant::now();
             let made = pool.install(|| match &previous {
                 Some(p) => sequence.scene_after(p, animation, time_s),
+                None if still => sequence.parsed_at(animation, time_s).map(|parsed| {
+                    drop(sequence);
+                    (parsed.build(), Preparation::Build)
+                }),
                 None => sequence.scene_at(animation, time_s).map(|s| (s, Preparation::Build)),
             });
             let ms = (parse_time + started.elapsed()).as_secs_f64() * 1e3;
@@ -108,6 +122,18 @@ impl Worker {
         .map_err(|e| format!("the scene builder failed: {e}"))?
     }
 
+    /// The animations of file `id`, from the cache, else from the file (downloaded and parsed
+    /// if need be), with the time parsing took (zero when cached).
+    async fn animations_of(&self, id: &str) -> Result<(Arc<[AnimationInfo]>, Duration), String> {
+        if let Some(a) = self.scenes.lock().expect("scene cache lock").animations.get(&id.to_owned()) {
+            return Ok((a, Duration::ZERO));
+        }
+        let (sequence, parse_time) = self.sequence(id).await?;
+        let animations: Arc<[AnimationInfo]> = sequence.animations().into();
+        self.scenes.lock().expect("scene cache lock").animations.insert(id.to_owned(), animations.clone());
+        Ok((animations, parse_time))
+    }
+
     /// The parsed file `id` from the cache, or downloaded and parsed (on the render pool), with
     /// the time parsing took (zero when cached).
     async fn sequence(&self, id: &str) -> Result<(Arc<Sequence>, Duration), String> {
@@ -125,13 +151,14 @@ impl Worker {
         let (pool, cache, id) = (self.pool.clone(), self.scenes.clone(), id.to_owned());
         tokio::task::spawn_blocking(move || {
             let started = Instant::now();
-            let parsed = pool.install(|| Sequence::parse(&bytes, None));
+            let size = bytes.len();
+            let parsed = pool.install(|| Sequence::parse_owned(bytes, None, crate::scene::DEFAULT_MAX_TRIANGLES));
             let mut cache = cache.lock().expect("scene cache lock");
             match parsed {
                 Ok(seq) => {
                     let seq = Arc::new(seq);
                     cache.sequences.insert(id.clone(), seq.clone());
-                    info!(scene = %id, bytes = bytes.len(), animations = seq.animations().len(), ms = started.elapsed().as_millis() as u64, "scene parsed");
+                    info!(scene = %id, bytes = size, animations = seq.animations().len(), ms = started.elapsed().as_millis() as u64, "scene parsed");
                     Ok((seq, started.elapsed()))
                 }
                 Err(e) => {

@@ -515,3 +515,6 @@ fn an_idle_reason_is_logged_once_per_change() {
     assert!(api.note_idle(None), "work came: the reason is over");
     assert!(!api.note_idle(Some(&plain)));
 }
+
+#[path = "tests_scene_cache.rs"]
+mod scene_cache;

@@ -84,3 +84,20 @@ fn check_view(view: &gltf::buffer::View, buffers: &[Vec<u8>]) -> Result<(), Stri
         _ => Err(format!("buffer view {} lies outside buffer {} ({len} bytes)", view.index(), view.buffer().index())),
     }
 }
+
+/// A `VEC3` float accessor's elements as they lie in the buffer, when they are tightly packed
+/// (the usual layout of `POSITION`): read in place, a million-triangle mesh costs no copy of
+/// its vertices. None when the elements must go through the reader (strided, sparse,
+/// unaligned, no buffer view, or a big-endian host). Call after [`check_primitive`].
+pub fn packed_vec3<'a>(a: &gltf::Accessor, buffers: &'a [Vec<u8>]) -> Option<&'a [[f32; 3]]> {
+    use gltf::accessor::{DataType, Dimensions};
+    const ELEMENT: usize = size_of::<[f32; 3]>();
+    let view = a.view()?;
+    let packed = a.data_type() == DataType::F32 && a.dimensions() == Dimensions::Vec3 && view.stride().is_none_or(|s| s == ELEMENT);
+    if !packed || a.sparse().is_some() || a.normalized() || cfg!(target_endian = "big") {
+        return None;
+    }
+    let start = view.offset() + a.offset();
+    let bytes = buffers.get(view.buffer().index())?.get(start..start + a.count() * ELEMENT)?;
+    bytemuck::try_cast_slice(bytes).ok()
+}

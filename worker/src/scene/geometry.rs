@@ -2,11 +2,13 @@
 //! and punctual lights.
 use super::SceneError;
 use super::animation::Pose;
+use super::corners::Corners;
 use crate::tracer::camera::Camera;
 use crate::tracer::light::Light;
 use crate::tracer::scene::Mesh;
+use std::borrow::Cow;
 use glam::{DMat4, DVec3, Mat3, Mat4, Vec2, Vec3, Vec4};
-use gltf::mesh::Mode;
+use super::budget::{self, TriangleBudget};
 
 pub struct Parts {
     pub mesh: Mesh,
@@ -22,17 +24,51 @@ pub struct Parts {
 /// declaring a huge mesh (or instancing one many times) is refused without allocating it.
 /// Nodes `pose` drives use its local transform instead of the file's.
 pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, max_triangles: u64, pose: &Pose) -> Result<Parts, SceneError> {
+    let walk = |origin| walk(doc, buffers, material_count, max_triangles, pose, origin);
+    let mut walked = walk(DVec3::ZERO)?;
+    let origin = rebase_origin(&walked.bounds);
+    if origin != DVec3::ZERO {
+        // Rounded again about the new origin from the same f64 positions: walking twice costs
+        // far scenes some time, where keeping every f64 corner would cost each scene 72 bytes
+        // a triangle.
+        walked = walk(origin)?;
+    }
+    let Walked { mut parts, camera_worlds, light_worlds, .. } = walked;
+    let to_local = DMat4::from_translation(-origin);
+    for (c, w) in parts.cameras.iter_mut().zip(camera_worlds) {
+        c.to_world = (to_local * w).as_mat4();
+    }
+    for (l, w) in parts.lights.iter_mut().zip(light_worlds) {
+        if let Light::Point { position, .. } | Light::Spot { position, .. } = l {
+            *position = (w.transform_point3(DVec3::ZERO) - origin).as_vec3();
+        }
+    }
+    Ok(parts)
+}
+
+/// The scene's parts with positions rounded about `origin`, and the world transforms of its
+/// cameras and lights.
+struct Walked {
+    parts: Parts,
+    camera_worlds: Vec<DMat4>,
+    light_worlds: Vec<DMat4>,
+    bounds: Bounds64,
+}
+
+fn walk(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, max_triangles: u64, pose: &Pose, origin: DVec3) -> Result<Walked, SceneError> {
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| SceneError::new("the file has no scene"))?;
-    let mut parts = Parts { mesh: Mesh::default(), cameras: Vec::new(), lights: Vec::new() };
-    let (mut positions, mut camera_worlds, mut light_worlds) = (Vec::new(), Vec::new(), Vec::new());
+    let parts = Parts { mesh: Mesh::default(), cameras: Vec::new(), lights: Vec::new() };
+    let mut w = Walked { parts, camera_worlds: Vec::new(), light_worlds: Vec::new(), bounds: Bounds64::default() };
     let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
     // glTF nodes form disjoint trees. A node reached twice (two parents, or a cycle) would be
     // instanced once per path: a few nodes listing the same child twice make 2^depth copies.
     let mut seen = vec![false; doc.nodes().len()];
-    let mut budget = TriangleBudget { left: max_triangles, limit: max_triangles };
+    let mut budget = TriangleBudget::new(max_triangles);
+    // One allocation of the mesh's vectors, not a doubling series of them and their copies.
+    w.parts.mesh.reserve(budget::instanced(&scene, doc.nodes().len(), buffers).min(max_triangles) as usize);
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > 256 {
             return Err(SceneError::new(format!("node {}: hierarchy deeper than 256 levels", node.index())));
@@ -47,34 +83,37 @@ pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, ma
         }
         if let Some(mesh) = node.mesh() {
             budget.spend(&mesh)?;
-            add_mesh(&mut parts.mesh, &mut positions, &mesh, world, buffers, material_count)?;
+            let mut sink = Sink { mesh: &mut w.parts.mesh, bounds: &mut w.bounds, origin };
+            add_mesh(&mut sink, &mesh, world, buffers, material_count)?;
         }
         if let Some(cam) = node.camera()
             && let gltf::camera::Projection::Perspective(p) = cam.projection() {
-                parts.cameras.push(camera(&node, &cam, &p, world.as_mat4())?);
-                camera_worlds.push(world);
+                w.parts.cameras.push(camera(&node, &cam, &p, world.as_mat4())?);
+                w.camera_worlds.push(world);
             }
         if let Some(light) = node.light() {
-            parts.lights.push(punctual(&light, world.as_mat4())?);
-            light_worlds.push(world);
+            w.parts.lights.push(punctual(&light, world.as_mat4())?);
+            w.light_worlds.push(world);
         }
         stack.extend(node.children().map(|c| (c, world, depth + 1)));
     }
-    if parts.mesh.tangents.iter().flatten().all(|t| t.w == 0.0) {
-        parts.mesh.tangents = Vec::new();
+    if w.parts.mesh.tangents.iter().flatten().all(|t| t.w == 0.0) {
+        w.parts.mesh.tangents = Vec::new();
     }
-    let origin = rebase_origin(&positions);
-    let to_local = DMat4::from_translation(-origin);
-    parts.mesh.positions = positions.iter().map(|t| t.map(|p| (p - origin).as_vec3())).collect();
-    for (c, w) in parts.cameras.iter_mut().zip(camera_worlds) {
-        c.to_world = (to_local * w).as_mat4();
+    Ok(w)
+}
+
+/// The box around world-space corners, in f64; empty (lo > hi) before the first.
+#[derive(Clone, Copy)]
+struct Bounds64 {
+    lo: DVec3,
+    hi: DVec3,
+}
+
+impl Default for Bounds64 {
+    fn default() -> Bounds64 {
+        Bounds64 { lo: DVec3::splat(f64::INFINITY), hi: DVec3::splat(f64::NEG_INFINITY) }
     }
-    for (l, w) in parts.lights.iter_mut().zip(light_worlds) {
-        if let Light::Point { position, .. } | Light::Spot { position, .. } = l {
-            *position = (w.transform_point3(DVec3::ZERO) - origin).as_vec3();
-        }
-    }
-    Ok(parts)
 }
 
 /// Where the tracer's origin goes: the centre of the geometry's bounding box when that lies
@@ -82,14 +121,11 @@ pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, ma
 /// load exactly as written). f32 spacing at 1e5 is 8 mm, enough to merge a light with the
 /// ceiling 0.1 mm above it; subtracting the centre in f64 first keeps every millimetre. Images
 /// do not depend on where the scene sits, so nothing downstream sees the move.
-fn rebase_origin(positions: &[[DVec3; 3]]) -> DVec3 {
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for p in positions.iter().flatten() {
-        (lo, hi) = (lo.min(*p), hi.max(*p));
-    }
+fn rebase_origin(bounds: &Bounds64) -> DVec3 {
+    let Bounds64 { lo, hi } = *bounds;
     let (centre, size) = ((lo + hi) * 0.5, (hi - lo).max_element());
     let far = centre.abs().max_element() > 4.0 * size;
-    if positions.is_empty() || !far { DVec3::ZERO } else { centre }
+    if lo.x > hi.x || !far { DVec3::ZERO } else { centre }
 }
 
 fn camera(node: &gltf::Node, cam: &gltf::Camera, p: &gltf::camera::Perspective, world: Mat4) -> Result<Camera, SceneError> {
@@ -149,16 +185,16 @@ fn punctual(light: &gltf::khr_lights_punctual::Light, world: Mat4) -> Result<Lig
     })
 }
 
-/// Appends the mesh's triangles to `out`, with their f64 world positions in `positions` (the
-/// caller rounds them to f32 into `out.positions`).
-fn add_mesh(
-    out: &mut Mesh,
-    positions64: &mut Vec<[DVec3; 3]>,
-    mesh: &gltf::Mesh,
-    world64: DMat4,
-    buffers: &[Vec<u8>],
-    material_count: usize,
-) -> Result<(), SceneError> {
+/// Where a mesh's triangles go: their f32 positions are rounded about `origin` from the f64
+/// world-space corners, which `bounds` grows around.
+struct Sink<'a> {
+    mesh: &'a mut Mesh,
+    bounds: &'a mut Bounds64,
+    origin: DVec3,
+}
+
+/// Appends the mesh's triangles to `out`.
+fn add_mesh(out: &mut Sink, mesh: &gltf::Mesh, world64: DMat4, buffers: &[Vec<u8>], material_count: usize) -> Result<(), SceneError> {
     let world = world64.as_mat4();
     let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
     // A mirroring transform flips the winding; swap two corners to keep front faces in front.
@@ -167,26 +203,26 @@ fn add_mesh(
         let at = |what: &str| format!("mesh {} primitive {}: {what}", mesh.index(), prim.index());
         super::accessors::check_primitive(&prim, buffers, &at)?;
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.as_slice()));
-        let positions: Vec<Vec3> = reader
-            .read_positions()
-            .ok_or_else(|| SceneError::new(at("no POSITION attribute")))?
-            .map(Vec3::from)
-            .collect();
+        let position_accessor = prim.get(&gltf::Semantic::Positions).ok_or_else(|| SceneError::new(at("no POSITION attribute")))?;
+        let positions: Cow<[[f32; 3]]> = match super::accessors::packed_vec3(&position_accessor, buffers) {
+            Some(packed) => Cow::Borrowed(packed),
+            None => Cow::Owned(reader.read_positions().ok_or_else(|| SceneError::new(at("no POSITION attribute")))?.collect()),
+        };
         if positions.is_empty() {
             return Err(SceneError::new(at("POSITION has no vertices")));
         }
-        if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
+        if let Some(k) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             return Err(SceneError::new(at(&format!("POSITION {k} is not finite"))));
         }
         let normals: Option<Vec<Vec3>> = reader.read_normals().map(|n| n.map(Vec3::from).collect());
         let tangents: Option<Vec<Vec4>> = reader.read_tangents().map(|t| t.map(Vec4::from).collect());
         let uv = |set| reader.read_tex_coords(set).map(|t| t.into_f32().map(Vec2::from).collect::<Vec<_>>());
         let uvs = [uv(0), uv(1)];
-        let indices: Vec<u32> = match reader.read_indices() {
-            Some(ix) => ix.into_u32().collect(),
-            None => (0..positions.len() as u32).collect(),
+        let corners = match reader.read_indices() {
+            Some(ix) => Corners::Listed(ix.into_u32().collect()),
+            None => Corners::InOrder(positions.len() as u32),
         };
-        if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+        if let Some(bad) = corners.out_of_range(positions.len()) {
             return Err(SceneError::new(at(&format!("index {bad} out of range (POSITION count {})", positions.len()))));
         }
         check_len(&at, "NORMAL", normals.as_ref().map(Vec::len), positions.len())?;
@@ -198,10 +234,10 @@ fn add_mesh(
             Some(m) => return Err(SceneError::new(at(&format!("material {m} does not exist")))),
             None => material_count as u32, // glTF's default material, appended by the loader
         };
-        let triangles = triangle_list(prim.mode(), &indices).ok_or_else(|| SceneError::new(at("not a triangle mode (points and lines have no area)")))?;
+        let triangles = corners.triangles(prim.mode()).ok_or_else(|| SceneError::new(at("not a triangle mode (points and lines have no area)")))?;
         for [a, b, c] in triangles {
             let corners = if mirrored { [a, c, b] } else { [a, b, c] };
-            let p64 = corners.map(|i| world64.transform_point3(positions[i as usize].as_dvec3()));
+            let p64 = corners.map(|i| world64.transform_point3(Vec3::from(positions[i as usize]).as_dvec3()));
             let face = (p64[1] - p64[0]).cross(p64[2] - p64[0]).normalize_or_zero().as_vec3();
             let n = match &normals {
                 Some(ns) => corners.map(|i| (normal_matrix * ns[i as usize]).normalize_or(face)),
@@ -216,9 +252,12 @@ fn add_mesh(
             // Tangents lie in the surface: they transform like positions (w, the handedness,
             // flips with a mirroring transform). Zero marks "none" (normal maps use UVs).
             let tg = tangents.as_ref().map(|ts| corners.map(|i| tangent(ts[i as usize], world, mirrored)));
-            positions64.push(p64);
+            for p in p64 {
+                (out.bounds.lo, out.bounds.hi) = (out.bounds.lo.min(p), out.bounds.hi.max(p));
+            }
+            out.mesh.positions.push(p64.map(|p| (p - out.origin).as_vec3()));
             // Flat normals, absent UVs and tangents take no memory (see tracer::mesh).
-            out.push_attributes(n, t, tg, material);
+            out.mesh.push_attributes(n, t, tg, material);
         }
     }
     Ok(())
@@ -230,49 +269,9 @@ fn tangent(t: Vec4, world: Mat4, mirrored: bool) -> Vec4 {
     if xyz == Vec3::ZERO || !xyz.is_finite() { Vec4::ZERO } else { xyz.extend(w) }
 }
 
-/// Triangles still allowed; spent per mesh instance from accessor counts, before reading.
-struct TriangleBudget {
-    left: u64,
-    limit: u64,
-}
-
-impl TriangleBudget {
-    fn spend(&mut self, mesh: &gltf::Mesh) -> Result<(), SceneError> {
-        for prim in mesh.primitives() {
-            let corners = prim.indices().or_else(|| prim.get(&gltf::Semantic::Positions)).map_or(0, |a| a.count()) as u64;
-            let n = match prim.mode() {
-                Mode::Triangles => corners / 3,
-                Mode::TriangleStrip | Mode::TriangleFan => corners.saturating_sub(2),
-                _ => 0,
-            };
-            self.left = self.left.checked_sub(n).ok_or_else(|| {
-                SceneError::new(format!(
-                    "mesh {} primitive {}: the scene has more than {} triangles, the most this loader accepts",
-                    mesh.index(),
-                    prim.index(),
-                    self.limit
-                ))
-            })?;
-        }
-        Ok(())
-    }
-}
-
 fn check_len(at: &dyn Fn(&str) -> String, name: &str, len: Option<usize>, expected: usize) -> Result<(), SceneError> {
     match len {
         Some(n) if n != expected => Err(SceneError::new(at(&format!("{name} count {n} differs from POSITION count {expected}")))),
         _ => Ok(()),
     }
-}
-
-/// Triangle corner indices for the three triangle modes; None for points and lines.
-fn triangle_list(mode: Mode, ix: &[u32]) -> Option<Vec<[u32; 3]>> {
-    Some(match mode {
-        Mode::Triangles => ix.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
-        Mode::TriangleStrip => (0..ix.len().saturating_sub(2))
-            .map(|i| if i % 2 == 0 { [ix[i], ix[i + 1], ix[i + 2]] } else { [ix[i + 1], ix[i], ix[i + 2]] })
-            .collect(),
-        Mode::TriangleFan => (1..ix.len().saturating_sub(1)).map(|i| [ix[0], ix[i], ix[i + 1]]).collect(),
-        _ => return None,
-    })
 }

@@ -15,6 +15,8 @@
 //! Every error names what is wrong and where ("mesh 3 primitive 0: POSITION accessor count 0").
 //! External files may only be plain relative paths below the scene's own directory.
 mod accessors;
+mod budget;
+mod corners;
 pub mod animation;
 pub mod effects;
 mod geometry;
@@ -54,7 +56,10 @@ pub struct SceneInfo {
 /// Loads a `.gltf` or `.glb` file; external resources resolve relative to its directory.
 pub fn load_path(path: &Path) -> Result<Scene, SceneError> {
     let bytes = std::fs::read(path).map_err(|e| SceneError::new(format!("cannot read {}: {e}", path.display())))?;
-    load_bytes(&bytes, path.parent())
+    // The file (a .glb's binary chunk) is freed before the build, whose peak is most of a
+    // large scene's memory.
+    let parsed = Sequence::parse_owned(bytes, path.parent(), DEFAULT_MAX_TRIANGLES)?.parsed_at(None, 0.0)?;
+    Ok(parsed.build())
 }
 
 /// Loads a glTF document from memory. With `base` None, only self-contained files load.
@@ -192,3 +197,5 @@ pub fn pack_glb(json: &str, bin: &[u8]) -> Vec<u8> {
     out.extend_from_slice(&b);
     out
 }
+#[cfg(test)]
+mod tests_memory;

@@ -10,6 +10,7 @@ use super::{Parsed, Preparation, SceneError, geometry, materials, uri, validate}
 use crate::tracer::Scene;
 use crate::tracer::material::Material;
 use crate::tracer::texture::Texture;
+use std::borrow::Cow;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -37,17 +38,18 @@ impl Sequence {
 
     /// [`Sequence::parse`] with the triangle limit of [`super::parse_limited`].
     pub fn parse_limited(bytes: &[u8], base: Option<&Path>, max_triangles: u64) -> Result<Sequence, SceneError> {
-        // gltf-json 1.4's validator indexes `accessors[POSITION]` unchecked and panics on an index
-        // out of range: turn that into an error naming the attribute.
-        if bytes.iter().all(u8::is_ascii_whitespace) {
-            return Err(SceneError::new("invalid glTF: the scene is empty"));
-        }
-        validate::glb_container(bytes).map_err(|e| SceneError::new(format!("invalid glTF: {e}")))?;
-        let gltf = std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes))
-            .map_err(|_| SceneError::new(format!("invalid glTF: {}", validate::explain_panic(bytes))))?
-            .map_err(|e| SceneError::new(format!("invalid glTF: {}", e.to_string().trim_start_matches("invalid glTF: "))))?;
-        let document = gltf.document;
-        let buffers = uri::load_buffers(&document, base, gltf.blob)?;
+        Sequence::parse_file(Cow::Borrowed(bytes), base, max_triangles)
+    }
+
+    /// [`Sequence::parse_limited`] taking the file: a `.glb`'s binary chunk then stays where it
+    /// is instead of being copied out (the file is mostly that chunk).
+    pub fn parse_owned(bytes: Vec<u8>, base: Option<&Path>, max_triangles: u64) -> Result<Sequence, SceneError> {
+        Sequence::parse_file(Cow::Owned(bytes), base, max_triangles)
+    }
+
+    fn parse_file(bytes: Cow<[u8]>, base: Option<&Path>, max_triangles: u64) -> Result<Sequence, SceneError> {
+        let (document, blob) = open(bytes)?;
+        let buffers = uri::load_buffers(&document, base, blob)?;
         let mut pool = super::textures::TexturePool::load(&document, base, &buffers)?;
         let mut materials = materials::load_materials(&document, &mut pool)?;
         let textures = pool.finish();
@@ -107,4 +109,42 @@ impl Sequence {
     pub fn scene_after(&self, previous: &Scene, animation: Option<usize>, time_s: f64) -> Result<(Scene, Preparation), SceneError> {
         Ok(self.parsed_at(animation, time_s)?.build_from(previous))
     }
+}
+
+/// The document of a `.gltf` or `.glb` file and the `.glb`'s binary chunk, validated.
+fn open(bytes: Cow<[u8]>) -> Result<(gltf::Document, Option<Vec<u8>>), SceneError> {
+    // gltf-json 1.4's validator indexes `accessors[POSITION]` unchecked and panics on an index
+    // out of range: turn that into an error naming the attribute.
+    if bytes.iter().all(u8::is_ascii_whitespace) {
+        return Err(SceneError::new("invalid glTF: the scene is empty"));
+    }
+    validate::glb_container(&bytes).map_err(|e| SceneError::new(format!("invalid glTF: {e}")))?;
+    let opened = std::panic::catch_unwind(|| document_and_chunk(&bytes))
+        .map_err(|_| SceneError::new(format!("invalid glTF: {}", validate::explain_panic(&bytes))))?
+        .map_err(|e| SceneError::new(format!("invalid glTF: {}", e.to_string().trim_start_matches("invalid glTF: "))))?;
+    let (document, chunk) = opened;
+    let blob = chunk.map(|range| match bytes {
+        Cow::Owned(mut file) => {
+            file.truncate(range.end);
+            file.drain(..range.start);
+            file
+        }
+        Cow::Borrowed(file) => file[range].to_vec(),
+    });
+    Ok((document, blob))
+}
+
+/// What `gltf::Gltf::from_slice` reads, with the binary chunk as a range of `bytes` (which
+/// that function would copy).
+fn document_and_chunk(bytes: &[u8]) -> gltf::Result<(gltf::Document, Option<std::ops::Range<usize>>)> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok((gltf::Document::from_json(gltf::json::deserialize::from_slice(bytes)?)?, None));
+    }
+    let glb = gltf::binary::Glb::from_slice(bytes)?;
+    let document = gltf::Document::from_json(gltf::json::deserialize::from_slice(&glb.json)?)?;
+    let chunk = glb.bin.map(|bin| {
+        let start = (bin.as_ptr() as usize).checked_sub(bytes.as_ptr() as usize).expect("Glb::from_slice borrows the chunk from the file");
+        start..start + bin.len()
+    });
+    Ok((document, chunk))
 }

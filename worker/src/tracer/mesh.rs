@@ -50,28 +50,42 @@ impl Mesh {
         }
     }
 
-    /// Appends the next triangle's attributes (its index is `material.len()`; positions are
-    /// the caller's to push, as the loader sets them all at the end). `uvs` and `tangents`:
-    /// None where the triangle has none.
+    /// Appends the next triangle's attributes (its index is `material.len()`; its positions are
+    /// the caller's to push). `uvs` and `tangents`: None where the triangle has none.
     pub fn push_attributes(&mut self, normals: [Vec3; 3], uvs: Option<[[Vec2; 3]; 2]>, tangents: Option<[Vec4; 3]>, material: u32) {
         let i = self.material.len();
         if self.normals.is_empty() && is_flat(&normals) {
             self.flat_normals.push(normals[0]);
         } else {
             if self.normals.is_empty() {
-                self.normals = self.flat_normals.drain(..).map(|n| [n; 3]).collect();
+                // As many as the mesh has room for (see `reserve`), and the flat ones freed.
+                self.normals.reserve_exact(self.material.capacity());
+                self.normals.extend(std::mem::take(&mut self.flat_normals).into_iter().map(|n| [n; 3]));
             }
             self.normals.push(normals);
         }
         if uvs.is_some() || !self.uvs.is_empty() {
+            self.uvs.reserve_exact(self.material.capacity().saturating_sub(self.uvs.len()));
             self.uvs.resize(i, Default::default());
             self.uvs.push(uvs.unwrap_or_default());
         }
         if tangents.is_some() || !self.tangents.is_empty() {
+            self.tangents.reserve_exact(self.material.capacity().saturating_sub(self.tangents.len()));
             self.tangents.resize(i, [Vec4::ZERO; 3]);
             self.tangents.push(tangents.unwrap_or([Vec4::ZERO; 3]));
         }
         self.material.push(material);
+    }
+
+    /// Room for `additional` more triangles in the vectors every triangle uses, so a large
+    /// mesh loads without the copies (and the freed blocks) of a vector doubling.
+    pub fn reserve(&mut self, additional: usize) {
+        self.positions.reserve(additional);
+        self.material.reserve(additional);
+        match self.normals.is_empty() {
+            true => self.flat_normals.reserve(additional),
+            false => self.normals.reserve(additional),
+        }
     }
 
     /// Sets UV set `set` of triangle `i`'s corners (storing UVs from now on).

@@ -1,0 +1,42 @@
+//! How soon the allocator gives freed memory back, for the processes that build scenes.
+//!
+//! mimalloc 3 keeps freed pages resident for a second (its `purge_delay`, 1000 ms; mimalloc 2's
+//! was 10 ms) and reuses them meanwhile. A BVH build frees and allocates hundreds of MiB within
+//! that second, and not all of it is reused, so a worker's resident peak on a million triangles
+//! was 434–517 MiB as a job with the default, 367–370 with 10 ms and 351 with 0
+//! (docs/performance.md, session 30). `tessera work` and `tessera render` therefore take 10 ms;
+//! `tessera serve` keeps the default, since a coordinator cycles its unit buffers through
+//! exactly that reuse (its round trips fell by half with a delay of 0). `MIMALLOC_PURGE_DELAY`
+//! in the environment overrides both.
+
+/// mimalloc's `mi_option_purge_delay` (its index in `mi_option_e`, the same in mimalloc 2 and 3;
+/// the test below checks it against the documented default).
+const PURGE_DELAY: libmimalloc_sys::mi_option_t = 15;
+
+/// The delay for processes that build scenes, in milliseconds.
+const SCENE_BUILDER_PURGE_MS: std::ffi::c_long = 10;
+
+/// Sets the purge delay to [`SCENE_BUILDER_PURGE_MS`] unless the environment sets it.
+pub fn for_scene_builders() {
+    if std::env::var_os("MIMALLOC_PURGE_DELAY").is_none() {
+        // SAFETY: sets an integer option; mimalloc reads its options atomically, at any time.
+        unsafe { libmimalloc_sys::mi_option_set(PURGE_DELAY, SCENE_BUILDER_PURGE_MS) };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sets_mimallocs_purge_delay_unless_the_environment_does() {
+        if std::env::var_os("MIMALLOC_PURGE_DELAY").is_some() {
+            return; // the option then holds the user's value
+        }
+        // SAFETY: reads an integer option.
+        let get = || unsafe { libmimalloc_sys::mi_option_get(PURGE_DELAY) };
+        assert_eq!(get(), 1000, "option {PURGE_DELAY} is not mimalloc 3's purge_delay (documented default 1000 ms)");
+        for_scene_builders();
+        assert_eq!(get(), SCENE_BUILDER_PURGE_MS);
+    }
+}
