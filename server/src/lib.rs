@@ -10,6 +10,7 @@
 //! - [`store`], [`persist`]: durable job state (redb + checkpoint files) and resuming from it.
 //! - [`scratch`]: temporary directories of commands that run their own coordinator, removed
 //!   on drop and before a benchmark exits early.
+//! - [`purge`]: how soon the allocator gives freed memory back, for processes that build scenes.
 //! - [`bench`]: benchmark studies (the accuracy study of issue #10) shared by `tessera-bench` and tests.
 //! - [`dashboard`]: the web dashboard at `/` (static files compiled in).
 //! - [`app`], [`routes`], [`state`], [`status`], [`error`], [`scenes`]: the axum coordinator —
@@ -25,6 +26,7 @@ pub mod image;
 pub mod local;
 pub mod output;
 pub mod persist;
+pub mod purge;
 pub mod routes;
 pub mod scenes;
 pub mod scheduler;

@@ -3,7 +3,6 @@ mod args;
 mod bench;
 mod healthcheck;
 mod job;
-mod purge;
 mod render;
 mod serve;
 mod submit;
@@ -27,7 +26,7 @@ enum Command {
     /// Run a coordinator: accepts jobs over HTTP and leases units to workers.
     Serve(serve::ServeArgs),
     /// Run a worker: pulls units from a coordinator, renders them on all cores, returns sums.
-    #[command(after_help = "On SIGTERM or Ctrl-C the worker takes no new unit, gives back the one it prefetched, lets the unit in hand finish within 2 s (and uploads it) or gives it back, then deregisters from the coordinator and exits 0.")]
+    #[command(after_help = "On SIGTERM or Ctrl-C the worker takes no new unit, gives back the one it prefetched, lets the unit in hand finish within 2 s (and uploads it) or gives it back, then deregisters from the coordinator and exits 0.\n\nThe allocator gives freed memory back to the system after 10 ms (MIMALLOC_PURGE_DELAY, in milliseconds, overrides it), which keeps a BVH build's peak low.")]
     Work(work::WorkArgs),
     /// Submit a job to a coordinator, optionally wait for it and download the image.
     Submit(submit::SubmitArgs),

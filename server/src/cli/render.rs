@@ -30,7 +30,7 @@ pub struct RenderArgs {
 }
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
-    super::purge::for_scene_builders();
+    tessera_server::purge::for_scene_builders();
     if !Path::new(&a.scene).is_file() && bundled::get(&a.scene).is_none() {
         anyhow::bail!("{:?} is neither a file nor a bundled scene ({})", a.scene, bundled::names().join(", "));
     }

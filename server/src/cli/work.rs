@@ -21,7 +21,7 @@ pub struct WorkArgs {
 }
 
 pub fn run(a: WorkArgs) -> anyhow::Result<()> {
-    super::purge::for_scene_builders();
+    tessera_server::purge::for_scene_builders();
     let name = a.name.clone().unwrap_or_else(|| std::fs::read_to_string("/etc/hostname").map(|s| s.trim().to_string()).unwrap_or_else(|_| "worker".into()));
     let config = tessera_worker::client::WorkerConfig { coordinator: a.coordinator, token: a.token, threads: a.threads, name };
     let rt = tokio::runtime::Runtime::new()?;

@@ -2,12 +2,12 @@
 //!
 //! mimalloc 3 keeps freed pages resident for a second (its `purge_delay`, 1000 ms; mimalloc 2's
 //! was 10 ms) and reuses them meanwhile. A BVH build frees and allocates hundreds of MiB within
-//! that second, and not all of it is reused, so a worker's resident peak on a million triangles
-//! was 434–517 MiB as a job with the default, 367–370 with 10 ms and 351 with 0
-//! (docs/performance.md, session 30). `tessera work` and `tessera render` therefore take 10 ms;
-//! `tessera serve` keeps the default, since a coordinator cycles its unit buffers through
-//! exactly that reuse (its round trips fell by half with a delay of 0). `MIMALLOC_PURGE_DELAY`
-//! in the environment overrides both.
+//! that second, and not all of it is reused: a worker rendering a million triangles as a job
+//! peaked at 500 MiB resident with the default, 336–344 with 10 ms and 332 with 0
+//! (docs/performance.md, session 30). `tessera work`, `tessera render` and `tessera-bench bvh`
+//! therefore take 10 ms. `tessera serve` keeps the default: a coordinator cycles its unit
+//! buffers through exactly that reuse (its round trips fell by half with a delay of 0).
+//! `MIMALLOC_PURGE_DELAY` in the environment overrides both.
 
 /// mimalloc's `mi_option_purge_delay` (its index in `mi_option_e`, the same in mimalloc 2 and 3;
 /// the test below checks it against the documented default).
@@ -19,8 +19,15 @@ const SCENE_BUILDER_PURGE_MS: std::ffi::c_long = 10;
 /// Sets the purge delay to [`SCENE_BUILDER_PURGE_MS`] unless the environment sets it.
 pub fn for_scene_builders() {
     if std::env::var_os("MIMALLOC_PURGE_DELAY").is_none() {
-        // SAFETY: sets an integer option; mimalloc reads its options atomically, at any time.
-        unsafe { libmimalloc_sys::mi_option_set(PURGE_DELAY, SCENE_BUILDER_PURGE_MS) };
+        // SAFETY: sets an integer option, which mimalloc reads at each use; then collects, as
+        // any thread may at any time.
+        unsafe {
+            libmimalloc_sys::mi_option_set(PURGE_DELAY, SCENE_BUILDER_PURGE_MS);
+            // A purge already scheduled keeps its expiry, and later frees join it rather than
+            // set their own: without this, memory freed before the call (by the start-up of
+            // `tessera-bench bvh`, for one) held every purge back for the old delay's 10 s.
+            libmimalloc_sys::mi_collect(true);
+        }
     }
 }
 
