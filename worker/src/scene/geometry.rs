@@ -24,7 +24,14 @@ pub struct Parts {
 /// declaring a huge mesh (or instancing one many times) is refused without allocating it.
 /// Nodes `pose` drives use its local transform instead of the file's.
 pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, max_triangles: u64, pose: &Pose) -> Result<Parts, SceneError> {
-    let walk = |origin| walk(doc, buffers, material_count, max_triangles, pose, origin);
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| SceneError::new("the file has no scene"))?;
+    // One allocation of the mesh's vectors, not a doubling series of them and their copies.
+    let room = budget::instanced(&scene, doc.nodes().len(), buffers).min(max_triangles) as usize;
+    let source = Source { scene, nodes: doc.nodes().len(), buffers, material_count, max_triangles, pose, room };
+    let walk = |origin| walk(&source, origin);
     let mut walked = walk(DVec3::ZERO)?;
     let origin = rebase_origin(&walked.bounds);
     if origin != DVec3::ZERO {
@@ -55,20 +62,29 @@ struct Walked {
     bounds: Bounds64,
 }
 
-fn walk(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, max_triangles: u64, pose: &Pose, origin: DVec3) -> Result<Walked, SceneError> {
-    let scene = doc
-        .default_scene()
-        .or_else(|| doc.scenes().next())
-        .ok_or_else(|| SceneError::new("the file has no scene"))?;
+/// What [`walk`] reads: the scene's node trees (of `nodes` in the file) in `pose`, and the
+/// triangles its mesh has room for.
+struct Source<'a> {
+    scene: gltf::Scene<'a>,
+    nodes: usize,
+    buffers: &'a [Vec<u8>],
+    material_count: usize,
+    max_triangles: u64,
+    pose: &'a Pose,
+    room: usize,
+}
+
+/// The scene's parts, positions rounded to f32 about `origin`.
+fn walk(src: &Source, origin: DVec3) -> Result<Walked, SceneError> {
+    let Source { scene, nodes, buffers, material_count, max_triangles, pose, room } = src;
     let parts = Parts { mesh: Mesh::default(), cameras: Vec::new(), lights: Vec::new() };
     let mut w = Walked { parts, camera_worlds: Vec::new(), light_worlds: Vec::new(), bounds: Bounds64::default() };
     let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
     // glTF nodes form disjoint trees. A node reached twice (two parents, or a cycle) would be
     // instanced once per path: a few nodes listing the same child twice make 2^depth copies.
-    let mut seen = vec![false; doc.nodes().len()];
-    let mut budget = TriangleBudget::new(max_triangles);
-    // One allocation of the mesh's vectors, not a doubling series of them and their copies.
-    w.parts.mesh.reserve(budget::instanced(&scene, doc.nodes().len(), buffers).min(max_triangles) as usize);
+    let mut seen = vec![false; *nodes];
+    let mut budget = TriangleBudget::new(*max_triangles);
+    w.parts.mesh.reserve(*room);
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > 256 {
             return Err(SceneError::new(format!("node {}: hierarchy deeper than 256 levels", node.index())));
@@ -84,7 +100,7 @@ fn walk(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, max_tr
         if let Some(mesh) = node.mesh() {
             budget.spend(&mesh)?;
             let mut sink = Sink { mesh: &mut w.parts.mesh, bounds: &mut w.bounds, origin };
-            add_mesh(&mut sink, &mesh, world, buffers, material_count)?;
+            add_mesh(&mut sink, &mesh, world, buffers, *material_count)?;
         }
         if let Some(cam) = node.camera()
             && let gltf::camera::Projection::Perspective(p) = cam.projection() {

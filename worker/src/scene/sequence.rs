@@ -65,11 +65,6 @@ impl Sequence {
         self.animations.iter().map(Animation::info).collect()
     }
 
-    /// See [`super::resolve_animation`].
-    pub fn resolve_animation(&self, selector: Option<&str>) -> Result<Option<usize>, SceneError> {
-        animation::resolve(&self.animations(), selector)
-    }
-
     /// The scene at `time_s` seconds of animation `animation` (None: the static pose), before
     /// its BVH is built.
     pub fn parsed_at(&self, animation: Option<usize>, time_s: f64) -> Result<Parsed, SceneError> {

@@ -64,15 +64,12 @@ impl Mesh {
             }
             self.normals.push(normals);
         }
+        let room = self.material.capacity();
         if uvs.is_some() || !self.uvs.is_empty() {
-            self.uvs.reserve_exact(self.material.capacity().saturating_sub(self.uvs.len()));
-            self.uvs.resize(i, Default::default());
-            self.uvs.push(uvs.unwrap_or_default());
+            store(&mut self.uvs, i, room, uvs.unwrap_or_default());
         }
         if tangents.is_some() || !self.tangents.is_empty() {
-            self.tangents.reserve_exact(self.material.capacity().saturating_sub(self.tangents.len()));
-            self.tangents.resize(i, [Vec4::ZERO; 3]);
-            self.tangents.push(tangents.unwrap_or([Vec4::ZERO; 3]));
+            store(&mut self.tangents, i, room, tangents.unwrap_or([Vec4::ZERO; 3]));
         }
         self.material.push(material);
     }
@@ -123,6 +120,17 @@ impl Mesh {
         }
         held(&self.positions) + held(&self.normals) + held(&self.flat_normals) + held(&self.uvs) + held(&self.tangents) + held(&self.material)
     }
+}
+
+/// Stores triangle `i`'s entry of a per-triangle vector stored only once some triangle needs it,
+/// the triangles before `i` taking the default (zero: none); when the vector starts, with room
+/// for as many triangles as the mesh has (see [`Mesh::reserve`]).
+fn store<T: Clone + Default>(v: &mut Vec<T>, i: usize, room: usize, value: T) {
+    if v.is_empty() {
+        v.reserve_exact(room.max(i + 1));
+    }
+    v.resize(i, T::default());
+    v.push(value);
 }
 
 /// Three corners of the same bits (equal as numbers is not enough: the sign of a zero can
