@@ -92,11 +92,11 @@ impl Worker {
             let started = Instant::now();
             let made = pool.install(|| match &previous {
                 Some(p) => sequence.scene_after(p, animation, time_s),
-                None if still => sequence.parsed_at(animation, time_s).map(|parsed| {
+                // This handle goes before the build: for a still file it was the last one.
+                None => sequence.parsed_at(animation, time_s).map(|parsed| {
                     drop(sequence);
                     (parsed.build(), Preparation::Build)
                 }),
-                None => sequence.scene_at(animation, time_s).map(|s| (s, Preparation::Build)),
             });
             let ms = (parse_time + started.elapsed()).as_secs_f64() * 1e3;
             let mut cache = cache.lock().expect("scene cache lock");

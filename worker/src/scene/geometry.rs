@@ -31,14 +31,13 @@ pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, ma
     // One allocation of the mesh's vectors, not a doubling series of them and their copies.
     let room = budget::instanced(&scene, doc.nodes().len(), buffers).min(max_triangles) as usize;
     let source = Source { scene, nodes: doc.nodes().len(), buffers, material_count, max_triangles, pose, room };
-    let walk = |origin| walk(&source, origin);
-    let mut walked = walk(DVec3::ZERO)?;
+    let mut walked = walk(&source, DVec3::ZERO)?;
     let origin = rebase_origin(&walked.bounds);
     if origin != DVec3::ZERO {
         // Rounded again about the new origin from the same f64 positions: walking twice costs
         // far scenes some time, where keeping every f64 corner would cost each scene 72 bytes
         // a triangle.
-        walked = walk(origin)?;
+        walked = walk(&source, origin)?;
     }
     let Walked { mut parts, camera_worlds, light_worlds, .. } = walked;
     let to_local = DMat4::from_translation(-origin);
