@@ -211,6 +211,8 @@ impl<'a> Integrator<'a> {
     }
 
     /// Emission at a hit, weighted as the estimator requires.
+    // Always: a call would take the `Surface` out of registers (see `Integrator::surface`).
+    #[inline(always)]
     fn emitted(&self, est: Estimator, depth: u32, prev: Option<Bounce>, s: &Surface) -> Vec3 {
         if s.le == Vec3::ZERO {
             return Vec3::ZERO;
