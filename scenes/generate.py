@@ -582,11 +582,7 @@ def _sphere_accessors(g: Gltf, radius: float) -> tuple[int, int, int]:
 
 def scene_glossy() -> dict:
     g = Gltf("GGX metal spheres")
-    floor_m = g.material(lambert("floor_grey", (0.5, 0.5, 0.5)))
-    e, s = radiance_to_emissive((10.0, 10.0, 10.0))
-    light_m = g.material(lambert("light", (0.78, 0.78, 0.78), e, s))
-    g.node("floor", mesh=g.flat_mesh("floor", rect_y(-3.0, 3.0, -3.0, 3.0, 0.0, True), floor_m))
-    g.node("light", mesh=g.flat_mesh("light", rect_y(-1.0, 1.0, -0.05, 0.45, 1.8, False), light_m))
+    _lit_floor(g, light_rect=(-1.0, 1.0, -0.05, 0.45))
     sphere = _sphere_accessors(g, 0.25)
     for k, r in enumerate((0.05, 0.2, 0.5, 1.0)):
         name = "gold_roughness_%g" % r
@@ -605,11 +601,7 @@ def phong_fallback_roughness(n: float) -> float:
 
 def scene_phong() -> dict:
     g = Gltf("Phong spheres")
-    floor_m = g.material(lambert("floor_grey", (0.5, 0.5, 0.5)))
-    e, s = radiance_to_emissive((10.0, 10.0, 10.0))
-    light_m = g.material(lambert("light", (0.78, 0.78, 0.78), e, s))
-    g.node("floor", mesh=g.flat_mesh("floor", rect_y(-3.0, 3.0, -3.0, 3.0, 0.0, True), floor_m))
-    g.node("light", mesh=g.flat_mesh("light", rect_y(-0.8, 0.8, -0.05, 0.45, 1.8, False), light_m))
+    _lit_floor(g, light_rect=(-0.8, 0.8, -0.05, 0.45))
     sphere = _sphere_accessors(g, 0.25)
     kd = [0.5, 0.45, 0.4]
     ks = [0.5, 0.5, 0.5]
@@ -662,13 +654,15 @@ def glass_material(name: str, roughness: float, volume: dict | None = None,
             "metallicFactor": 0.0, "roughnessFactor": roughness}, "extensions": ext}
 
 
-def _lit_floor(g: Gltf, light_radiance: float = 10.0) -> None:
-    """A grey floor and a rectangular area light above it (shared by the effect scenes)."""
+def _lit_floor(g: Gltf, light_radiance: float = 10.0,
+               light_rect: tuple[float, float, float, float] = (-0.8, 0.8, -0.6, 0.2)) -> None:
+    """A grey floor and a rectangular area light 1.8 m above it, x0..x1 × z0..z1 of
+    `light_rect` (shared by the effect scenes and the sphere rows of glossy and phong)."""
     floor_m = g.material(lambert("floor_grey", (0.5, 0.5, 0.5)))
     e, s = radiance_to_emissive((light_radiance,) * 3)
     light_m = g.material(lambert("light", (0.78, 0.78, 0.78), e, s))
     g.node("floor", mesh=g.flat_mesh("floor", rect_y(-3.0, 3.0, -3.0, 3.0, 0.0, True), floor_m))
-    g.node("light", mesh=g.flat_mesh("light", rect_y(-0.8, 0.8, -0.6, 0.2, 1.8, False), light_m))
+    g.node("light", mesh=g.flat_mesh("light", rect_y(*light_rect, 1.8, False), light_m))
 
 
 def scene_glass() -> dict:
