@@ -17,7 +17,9 @@ commit beside the current one). This script does that comparison:
     python3 docs/tools/compare_builds.py --base HEAD~1 --scenes cornell-box --rounds 20
     python3 docs/tools/compare_builds.py --base-bin /tmp/old/tessera --new-bin target/release/tessera
 
-Ratios are new ÷ base: below 1, the working tree's build does less or is faster.
+Ratios are new ÷ base: below 1, the working tree's build does less or is faster. The base's
+worktree and build stay under target/compare/ for the next run; `rm -rf target/compare && git
+worktree prune` removes them.
 """
 import argparse
 import os
@@ -55,6 +57,8 @@ def base_binary(root, rev):
                          text=True, check=True).stdout.strip()
     tree = root / 'target' / 'compare' / f'src-{sha[:12]}'
     if not tree.exists():
+        # A worktree deleted with target/ (cargo clean) is still registered until pruned.
+        subprocess.run(['git', 'worktree', 'prune'], cwd=root, check=True)
         subprocess.run(['git', 'worktree', 'add', '--detach', str(tree), sha], cwd=root, check=True,
                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     # A target directory shared by every base, so a second base rebuilds only what differs.
