@@ -33,6 +33,8 @@ import tempfile
 
 DIGEST = re.compile(r'pixels sha256: ([0-9a-f]{64})')
 COLLECTED = re.compile(r'Collected : (\d+)')
+# The counted render: small, since callgrind runs it some fifty times slower.
+COUNTED_SIZE, COUNTED_SPP = 48, 16
 
 
 def repo_root():
@@ -76,11 +78,13 @@ def digest_of(text):
 
 
 def instructions(binary, scene, out):
-    """Instructions of a 48×48, 16-spp render by callgrind (the whole process), and its digest."""
+    """Instructions of the counted render by callgrind (the whole process), and its digest."""
     with tempfile.TemporaryDirectory() as tmp:
         run = subprocess.run(['valgrind', '--tool=callgrind', f'--callgrind-out-file={tmp}/cg.out', str(binary),
-                              *render_args(scene, 48, 16, out)], capture_output=True, text=True,
+                              *render_args(scene, COUNTED_SIZE, COUNTED_SPP, out)], capture_output=True, text=True,
                              env=dict(os.environ, RUST_BACKTRACE='0'))
+    if run.returncode != 0:
+        sys.exit(f'{binary} failed on {scene} under callgrind:\n{run.stderr}')
     m = COLLECTED.search(run.stderr)
     return (int(m.group(1)) if m else None), digest_of(run.stdout + run.stderr)
 
@@ -100,35 +104,37 @@ def cpu_seconds(binary, scene, size, spp, out):
 def compare_scene(scene, binaries, args, out):
     """Prints one scene's rows; returns whether the two builds' digests agreed."""
     print(scene)
-    # Per render size, the digests each build gave: the builds must agree at every size.
+    # Per render (size, spp), the digests each build gave: the builds must agree on each.
     digests = {}
     if args.callgrind:
         counts = {}
         for name, binary in binaries.items():
             counts[name], d = instructions(binary, scene, out)
-            digests.setdefault(48, {}).setdefault(name, set()).add(d)
-        if None not in counts.values():
+            digests.setdefault((COUNTED_SIZE, COUNTED_SPP), {}).setdefault(name, set()).add(d)
+        if None in counts.values():
+            print('  instructions: callgrind printed no count')
+        else:
             ratio = counts['new'] / counts['base']
-            print(f'  instructions (48×48, 16 spp): base {counts["base"] / 1e6:.1f} M, new {counts["new"] / 1e6:.1f} M, '
+            print(f'  instructions ({COUNTED_SIZE}×{COUNTED_SIZE}, {COUNTED_SPP} spp): base {counts["base"] / 1e6:.1f} M, new {counts["new"] / 1e6:.1f} M, '
                   f'new ÷ base {ratio:.4f}')
     times = {name: [] for name in binaries}
     for _ in range(args.rounds):
         for name, binary in binaries.items():
             t, d = cpu_seconds(binary, scene, args.size, args.spp, out)
             times[name].append(t)
-            digests.setdefault(args.size, {}).setdefault(name, set()).add(d)
+            digests.setdefault((args.size, args.spp), {}).setdefault(name, set()).add(d)
     figures = {name: (min(v), statistics.median(v)) for name, v in times.items()}
     for name, (low, mid) in figures.items():
         print(f'  CPU s ({args.size}×{args.size}, {args.spp} spp, {args.rounds} rounds): {name:4s} min {low:.3f}, median {mid:.3f}')
     (bmin, bmed), (nmin, nmed) = figures['base'], figures['new']
     print(f'  new ÷ base: minima {nmin / bmin:.3f}, medians {nmed / bmed:.3f}')
     same = True
-    for size, by_build in sorted(digests.items()):
+    for (size, spp), by_build in sorted(digests.items()):
         seen = by_build['base'] | by_build['new']
         agree = len(seen) == 1 and None not in seen
         same &= agree
         shown = ', '.join(sorted(d[:12] if d else 'none' for d in seen))
-        print(f'  pixels at {size}×{size}: {"the same digest" if agree else "DIFFERENT digests"} ({shown})')
+        print(f'  pixels at {size}×{size}, {spp} spp: {"the same digest" if agree else "DIFFERENT digests"} ({shown})')
     return same
 
 
