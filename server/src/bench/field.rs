@@ -55,7 +55,9 @@ pub fn field_parts(spheres: Vec<[Vec3; 3]>) -> (Mesh, Vec<Material>, Camera) {
     // Exactly the space the triangles take (flat: one normal each, no UVs), so the heap figures
     // are the mesh's, not a Vec's slack.
     let count = spheres.len() + 4;
-    (mesh.positions.reserve_exact(count), mesh.flat_normals.reserve_exact(count), mesh.material.reserve_exact(count));
+    mesh.positions.reserve_exact(count);
+    mesh.flat_normals.reserve_exact(count);
+    mesh.material.reserve_exact(count);
     spheres.into_iter().for_each(|t| mesh.push_flat(t, 0));
     around.light.into_iter().for_each(|t| mesh.push_flat(t, 1));
     around.ground.into_iter().for_each(|t| mesh.push_flat(t, 0));

@@ -11,6 +11,9 @@ pub enum Corners {
     InOrder(u32),
 }
 
+/// Triangle t's corner indices under one primitive mode.
+type TriangleAt = fn(&Corners, usize) -> [u32; 3];
+
 impl Corners {
     fn len(&self) -> usize {
         match self {
@@ -37,7 +40,7 @@ impl Corners {
     /// The triangles of `mode` (lists, strips, fans); None for points and lines.
     pub fn triangles(&self, mode: Mode) -> Option<impl Iterator<Item = [u32; 3]> + '_> {
         let n = self.len();
-        let (count, shape): (usize, fn(&Corners, usize) -> [u32; 3]) = match mode {
+        let (count, shape): (usize, TriangleAt) = match mode {
             Mode::Triangles => (n / 3, |c, t| [c.at(3 * t), c.at(3 * t + 1), c.at(3 * t + 2)]),
             // Every other triangle of a strip is reversed to keep the winding.
             Mode::TriangleStrip => (n.saturating_sub(2), |c, t| match t % 2 {
