@@ -2,12 +2,14 @@
 IMAGE ?= tessera:latest
 COMPOSE ?= $(shell docker compose version >/dev/null 2>&1 && echo "docker compose" || echo docker-compose)
 WORKERS ?= 3
-PGO ?= 0
+PGO ?= auto
 
 .PHONY: image static pgo up down
 
-# The static binary (target/x86_64-unknown-linux-gnu/release/tessera) and the image from it;
-# `make image PGO=1` puts the profile-guided build in the image instead.
+# The image from the static binary: the profile-guided build (deploy/build-pgo.sh --static) where
+# an llvm-profdata of rustc's LLVM is installed, else the plain one
+# (target/x86_64-unknown-linux-gnu/release/tessera) with a note. PGO=1 insists on the
+# profile-guided build, PGO=0 builds the plain one.
 image:
 	PGO=$(PGO) deploy/build-image.sh $(IMAGE)
 

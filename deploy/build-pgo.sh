@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Builds `tessera` with profile-guided optimisation (PGO), for the machines of a farm.
 #
-# Usage: deploy/build-pgo.sh [--static] [--bench]
-#   --static  link statically (glibc, crt-static), as the container image needs (make image PGO=1)
+# Usage: deploy/build-pgo.sh [--static] [--bench] | --check
+#   --static  link statically (glibc, crt-static), as the container image needs (make image)
 #   --bench   also build tessera-bench from the same profile, to measure the build
 #             (docs/performance.md); its obvhs comparison is trained as much as our code
+#   --check   build nothing: exit 0 if the llvm-profdata it needs is here, else say what to
+#             install and exit 1 (make image's PGO=auto asks this first)
 #
 # Four steps, as rustc's book describes them: an instrumented build, a training run (every
 # bundled scene rendered small, through the in-process coordinator and worker, so the HTTP and
@@ -24,11 +26,12 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-static="" bench=""
+static="" bench="" check=""
 for arg in "$@"; do
     case "$arg" in
         --static) static=1 ;;
         --bench) bench=1 ;;
+        --check) check=1 ;;
         -h|--help) awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "$0"; exit 0 ;;
         *) echo "error: unknown argument $arg (see --help)" >&2; exit 2 ;;
     esac
@@ -56,6 +59,10 @@ find_profdata() {
     exit 1
 }
 profdata=$(find_profdata)
+if [[ -n "$check" ]]; then
+    echo "llvm-profdata of LLVM $llvm_major: $profdata" >&2
+    exit 0
+fi
 
 # Static and dynamic builds differ in every crate's flags: apart, neither rebuilds the other.
 root="${CARGO_TARGET_DIR:-target}/pgo${static:+-static}"
