@@ -17,11 +17,11 @@ pgo="${PGO:-0}"
 case "$pgo" in
     0|1) ;;
     auto)
-        if deploy/build-pgo.sh --check 2>/dev/null; then
+        if missing=$(deploy/build-pgo.sh --check 2>&1); then
             pgo=1
         else
             echo "note: building the plain binary; the profile-guided one renders up to 20 % faster with the same bits." >&2
-            deploy/build-pgo.sh --check 2>&1 | sed 's/^error: //; s/^ */      /' >&2 || true
+            sed 's/^error: //; s/^ */      /' <<<"$missing" >&2
             pgo=0
         fi ;;
     *) echo "error: PGO=$pgo: expected 0, 1 or auto" >&2; exit 2 ;;
