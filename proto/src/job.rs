@@ -140,7 +140,8 @@ pub struct Job {
     pub request: JobRequest,
     pub progress: Progress,
     /// Estimated relative MSE of the current image (mean over pixels and channels of
-    /// Var(mean)/(mean + 0.01)²); null before two samples per pixel are merged.
+    /// Var(mean)/(mean + 0.01)²), as of the newest `history` row (exact once the job has
+    /// ended); null before two samples per pixel are merged.
     pub noise: Option<f64>,
     /// Render time so far: from the first unit leased, without time paused or with the
     /// coordinator down.
@@ -150,7 +151,9 @@ pub struct Job {
     /// Workers holding a lease on this job now.
     pub workers: u32,
     pub effects: Vec<String>,
-    /// [seconds since start, samples per pixel, noise] after each merge (thinned to ≤ 512 rows).
+    /// [seconds since start, samples per pixel, noise]: a row after a merge at most every 100 ms,
+    /// and 1 µs later for each pixel whose relMSE the last row recomputed (a 1-megapixel frame:
+    /// about a row a second), and after the last merge; thinned to ≤ 512 rows.
     pub history: Vec<[f64; 3]>,
     pub dropped_samples: u64,
     pub max_sample_weight: f64,
@@ -182,7 +185,8 @@ pub struct FrameStatus {
     pub time_s: f64,
     /// Mean samples per pixel merged in this frame.
     pub samples_done: f64,
-    /// Estimated relMSE of this frame; null before any tile has two samples per pixel.
+    /// Estimated relMSE of this frame, as of the job's newest `history` row; null before any
+    /// tile has two samples per pixel.
     pub noise: Option<f64>,
     /// True once every tile of the frame is complete (its EXR is final when the job is done).
     pub done: bool,

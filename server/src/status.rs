@@ -8,7 +8,7 @@ pub fn job_status(job: &JobRun, now: u64, workers: u32, max_failures: u32) -> Jo
     let elapsed_s = elapsed_ms as f64 / 1000.0;
     let done = job.samples_done();
     let target = job.cfg.spp as f64;
-    let noise = job.noise();
+    let noise = job.reported_noise();
     let mut fraction = (done / target).min(1.0);
     if let (Some(t), Some(n)) = (job.cfg.noise_target, noise) {
         fraction = fraction.max((t / n).min(1.0));
@@ -33,7 +33,7 @@ pub fn job_status(job: &JobRun, now: u64, workers: u32, max_failures: u32) -> Jo
         samples_per_s: rate * job.pixel_count() as f64,
         workers,
         effects: job.cfg.effects.clone(),
-        history: job.history.iter().map(|r| [r[0], r[1], if r[2].is_finite() { r[2] } else { 0.0 }]).collect(),
+        history: job.history.rows.iter().map(|r| [r[0], r[1], if r[2].is_finite() { r[2] } else { 0.0 }]).collect(),
         dropped_samples: job.dropped(),
         max_sample_weight: job.max_weight(),
         message: job.message.clone(),
@@ -55,7 +55,7 @@ fn frame_status(job: &JobRun, index: usize) -> FrameStatus {
         frame: job.frame_number(index),
         time_s: job.frame_time_s(index),
         samples_done: job.frame_samples_done(index),
-        noise: job.frame_noise(index),
+        noise: job.reported_frame_noise(index),
         done: job.frame_complete(index),
         builds: prep.builds,
         refits: prep.refits,

@@ -7,7 +7,8 @@
 //!                              threads' CPU split (tessera_server::bench::overhead).
 //! `tessera-bench roundtrips` — a coordinator on one core fed by fake workers that return
 //!                              results instantly, each answer carrying the next lease as for real
-//!                              workers (`--separate-leases`: a lease request per unit); prints unit
+//!                              workers (`--separate-leases`: a lease request per unit;
+//!                              `--watchers N`: N clients follow the job's events); prints unit
 //!                              round trips per second and merge cost.
 //! `tessera-bench effects`    — the tracer alone on one scene with the gated kernel, the matte
 //!                              kernel (Lambert + lights only) and every effect forced on.
@@ -94,6 +95,10 @@ enum Cmd {
         /// the next lease (two requests per unit instead of one).
         #[arg(long)]
         separate_leases: bool,
+        /// Clients following the job's event stream meanwhile, as dashboards and `tessera render`
+        /// do (each gets a status, with the job's noise, up to ten times a second).
+        #[arg(long, default_value_t = 0)]
+        watchers: usize,
     },
 }
 
@@ -114,7 +119,7 @@ fn main() -> anyhow::Result<()> {
     tessera_server::say!("{}", tessera_server::bench::host::describe());
     match cmd {
         Cmd::Overhead(b) => tessera_server::bench::overhead::run(&b),
-        Cmd::Roundtrips { seconds, workers, tile, separate_leases } => roundtrips(seconds, workers, tile, !separate_leases),
+        Cmd::Roundtrips { seconds, workers, tile, separate_leases, watchers } => roundtrips(seconds, workers, tile, !separate_leases, watchers),
         Cmd::Effects { scene, size, spp, repeats } => effects(&scene, size, spp, repeats),
         Cmd::Accuracy(options) => tessera_server::bench::accuracy::run(options).map(|_| ()),
         Cmd::Field { triangles, output } => write_field(triangles, &output),
@@ -147,7 +152,7 @@ fn effects(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Resul
     Ok(())
 }
 
-fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool) -> anyhow::Result<()> {
+fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool, watchers: usize) -> anyhow::Result<()> {
     let scratch = tessera_server::scratch::ScratchDir::new("bench-rt");
     let state = tessera_server::state::AppState::new(tessera_server::state::Config::new(scratch.path().to_path_buf()))?;
     let std_listener = std::net::TcpListener::bind("127.0.0.1:0")?;
@@ -163,11 +168,11 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool) -
         });
     });
     let rt = tokio::runtime::Runtime::new()?;
-    let (units, elapsed) = rt.block_on(async {
+    let (units, elapsed, events) = rt.block_on(async {
         let http = reqwest::Client::new();
         let size = tile * 16;
         let req = JobRequest { scene: "furnace".into(), width: size, height: size, spp: Some(1 << 20), tile_size: Some(tile), batch_spp: Some(1), ..JobRequest::default() };
-        http.post(format!("{url}/v1/jobs")).json(&req).send().await?.error_for_status()?;
+        let job: tessera_proto::Job = http.post(format!("{url}/v1/jobs")).json(&req).send().await?.error_for_status()?.json().await?;
         let template = PartialSums {
             tile: TileRect { x0: 0, y0: 0, w: tile, h: tile },
             samples: [0, 1],
@@ -184,18 +189,39 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool) -
                 tokio::spawn(async move { fake_worker(i, http, url, template, deadline, next_with_result).await })
             })
             .collect();
+        let watching: Vec<_> = (0..watchers).map(|_| tokio::spawn(watch(http.clone(), format!("{url}/v1/jobs/{}/events", job.id), deadline))).collect();
         let mut total = 0u64;
         for t in tasks {
             total += t.await??;
         }
-        anyhow::Ok((total, start.elapsed().as_secs_f64()))
+        let elapsed = start.elapsed().as_secs_f64();
+        let mut events = 0u64;
+        for t in watching {
+            events += t.await??;
+        }
+        anyhow::Ok((total, elapsed, events))
     })?;
     let merge_ns = state.counters.merge_nanos.load(std::sync::atomic::Ordering::Relaxed) as f64;
     let leases = if next_with_result { "the next lease in each result's answer" } else { "a lease request per unit" };
     tessera_server::say!("roundtrips: {workers} fake workers, {tile}x{tile} tiles, 1 spp units, {leases}, coordinator on one core");
     tessera_server::say!("  {units} units in {elapsed:.2} s = {:.0} unit round trips/s", units as f64 / elapsed);
     tessera_server::say!("  merge cost {:.1} µs per unit (decode excluded)", merge_ns / units.max(1) as f64 / 1000.0);
+    if watchers > 0 {
+        tessera_server::say!("  {watchers} clients followed the job's events: {events} progress events in all");
+    }
     Ok(())
+}
+
+/// Reads the event stream at `url` until `deadline`; returns the progress events received.
+async fn watch(http: reqwest::Client, url: String, deadline: Instant) -> anyhow::Result<u64> {
+    let mut resp = http.get(url).header("accept", "text/event-stream").send().await?.error_for_status()?;
+    let mut events = 0;
+    let until = tokio::time::Instant::from_std(deadline);
+    while let Ok(chunk) = tokio::time::timeout_at(until, resp.chunk()).await {
+        let Some(chunk) = chunk? else { break };
+        events += chunk.windows(15).filter(|w| w == b"event: progress").count() as u64;
+    }
+    Ok(events)
 }
 
 /// Leases units and returns ready-made results for them until the deadline; returns units merged.

@@ -5,6 +5,7 @@
 //! in batch order and f64 sums are stored bit for bit, resuming from a checkpoint and merging
 //! batches upto.. gives the same bits as never stopping. Buffered out-of-order batches and units
 //! in flight are not saved: they are issued again.
+use super::history::History;
 use super::job::{JobConfig, JobRun};
 use super::Scheduler;
 use serde::{Deserialize, Serialize};
@@ -67,7 +68,7 @@ impl JobRun {
             seq: self.seq,
             state: self.state,
             elapsed_ms: self.elapsed_ms(now),
-            history: self.history.clone(),
+            history: self.history.rows.clone(),
             message: self.message.clone(),
             tiles: self.tiles.iter().map(|t| TileMark { upto: t.merged_upto, stop_at: t.stop_at }).collect(),
             contributions: self.contributions.clone(),
@@ -129,7 +130,7 @@ impl Scheduler {
             }
         }
         job.state = rec.state;
-        job.history = rec.history;
+        job.history = History::from_rows(rec.history);
         job.message = rec.message;
         job.elapsed_before_ms = rec.elapsed_ms;
         job.contributions = rec.contributions;

@@ -6,6 +6,7 @@
 //! A noise target is decided on that same order (after merging batch k, is the tile's relMSE at
 //! or below the target?), so it is deterministic too.
 use super::frames::FramePrepare;
+use super::history::History;
 use super::tile::{NoiseStop, TileRun};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
@@ -15,8 +16,6 @@ use tessera_worker::tracer::PixelSums;
 /// Fewest samples per pixel merged before a tile may stop on its noise estimate: with fewer, the
 /// variance estimate itself is too noisy to trust.
 pub const MIN_SPP_FOR_NOISE_STOP: u32 = 16;
-const MAX_HISTORY: usize = 512;
-const HISTORY_EVERY_MS: u64 = 100;
 
 /// A validated job, as accepted. Serialized into the coordinator's store (`crate::store`), so
 /// a restarted coordinator resumes with exactly the unit boundaries it promised.
@@ -75,7 +74,7 @@ pub struct JobRun {
     pub elapsed_before_ms: u64,
     pub started_ms: Option<u64>,
     pub finished_ms: Option<u64>,
-    pub history: Vec<[f64; 3]>,
+    pub history: History,
     pub message: Option<String>,
     /// Failures by worker id; a worker with too many is kept off the job.
     pub failures: BTreeMap<String, Failures>,
@@ -113,7 +112,7 @@ impl JobRun {
             elapsed_before_ms: 0,
             started_ms: None,
             finished_ms: None,
-            history: Vec::new(),
+            history: History::default(),
             message: None,
             failures: BTreeMap::new(),
             revision: 1,
@@ -176,9 +175,7 @@ impl JobRun {
         if self.tiles.iter().all(TileRun::complete) {
             self.finish(JobState::Done, now, None);
         }
-        // A history row costs a pass over every tile's noise: at most one per HISTORY_EVERY_MS.
-        let due = self.history.last().is_none_or(|r| self.elapsed_ms(now) >= (r[0] * 1000.0) as u64 + HISTORY_EVERY_MS);
-        if merged > 0 && (due || self.state.is_final()) {
+        if merged > 0 && (self.history.due(self.elapsed_ms(now)) || self.state.is_final()) {
             self.record_history(now);
         }
         merged
@@ -233,17 +230,7 @@ impl JobRun {
         self.revision += 1;
         self.tiles.iter_mut().for_each(TileRun::drain);
         self.pending_by.clear();
-    }
-
-    fn record_history(&mut self, now: u64) {
-        let row = [self.elapsed_ms(now) as f64 / 1000.0, self.samples_done(), self.noise().unwrap_or(0.0)];
-        self.history.push(row);
-        if self.history.len() > MAX_HISTORY {
-            // Thin evenly but keep the newest row.
-            let last = self.history.pop().expect("non-empty");
-            self.history = self.history.iter().step_by(2).copied().collect();
-            self.history.push(last);
-        }
+        self.forget_reported_noise();
     }
 
     /// Pixels of one frame.

@@ -21,6 +21,7 @@
 //!   first), then first come, first served.
 mod durable;
 mod frames;
+mod history;
 mod idle;
 mod job;
 mod leases;
@@ -31,6 +32,8 @@ mod tests;
 mod tests_durable;
 #[cfg(test)]
 mod tests_frames;
+#[cfg(test)]
+mod tests_history;
 #[cfg(test)]
 mod tests_idle;
 #[cfg(test)]

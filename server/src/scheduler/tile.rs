@@ -102,6 +102,12 @@ impl TileRun {
         self.rel_mse.get()
     }
 
+    /// The pixels whose relMSE [`TileRun::noise`] would compute afresh: the tile's, when it has
+    /// merged batches since its relMSE was last computed.
+    pub(super) fn stale_noise_pixels(&self) -> u64 {
+        if self.merged_upto > 0 && self.rel_mse.get().is_none() { self.rect.pixel_count() as u64 } else { 0 }
+    }
+
     /// Buffers a batch and merges every batch now contiguous, stopping early once the noise
     /// target is met. Returns how many batches merged.
     pub(super) fn accept(&mut self, batch: u32, sums: PartialSums, noise_stop: Option<NoiseStop>) -> u32 {
