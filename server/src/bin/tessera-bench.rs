@@ -159,14 +159,15 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool, w
     std_listener.set_nonblocking(true)?;
     let url = format!("http://{}", std_listener.local_addr()?);
     let server_state = state.clone();
-    // The coordinator gets one core: a current-thread runtime on its own OS thread.
-    std::thread::spawn(move || {
+    // The coordinator gets one core: a current-thread runtime on its own OS thread, named so a
+    // profile (`perf report --comm coordinator`) can tell it from the fake workers.
+    std::thread::Builder::new().name("coordinator".into()).spawn(move || {
         let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().expect("runtime");
         rt.block_on(async move {
             let listener = tokio::net::TcpListener::from_std(std_listener).expect("listener");
             let _ = tessera_server::app::run(listener, server_state, std::future::pending()).await;
         });
-    });
+    })?;
     let rt = tokio::runtime::Runtime::new()?;
     let (units, elapsed, events) = rt.block_on(async {
         let http = reqwest::Client::new();
