@@ -216,11 +216,12 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool, w
 /// Reads the event stream at `url` until `deadline`; returns the progress events received.
 async fn watch(http: reqwest::Client, url: String, deadline: Instant) -> anyhow::Result<u64> {
     let mut resp = http.get(url).header("accept", "text/event-stream").send().await?.error_for_status()?;
+    const PROGRESS: &[u8] = b"event: progress";
     let mut events = 0;
     let until = tokio::time::Instant::from_std(deadline);
     while let Ok(chunk) = tokio::time::timeout_at(until, resp.chunk()).await {
         let Some(chunk) = chunk? else { break };
-        events += chunk.windows(15).filter(|w| w == b"event: progress").count() as u64;
+        events += chunk.windows(PROGRESS.len()).filter(|w| *w == PROGRESS).count() as u64;
     }
     Ok(events)
 }

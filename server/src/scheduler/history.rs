@@ -31,8 +31,8 @@ pub struct History {
     seen: Option<NoiseSeen>,
 }
 
-#[derive(Clone, Debug)]
-struct NoiseSeen {
+#[derive(Clone, Debug, Default)]
+pub(super) struct NoiseSeen {
     job: Option<f64>,
     frames: Vec<Option<f64>>,
 }
@@ -59,9 +59,9 @@ impl History {
         self.gap_ms
     }
 
-    /// Adds `row`, whose noise figure recomputed the relMSE of `recomputed_pixels`.
-    pub fn record(&mut self, row: [f64; 3], recomputed_pixels: u64) {
-        self.seen = None;
+    /// Adds `row`, whose noise figures (`seen`) recomputed the relMSE of `recomputed_pixels`.
+    pub(super) fn record(&mut self, row: [f64; 3], recomputed_pixels: u64, seen: NoiseSeen) {
+        self.seen = Some(seen);
         self.gap_ms = (recomputed_pixels * GAP_NS_PER_PIXEL / 1_000_000).max(HISTORY_EVERY_MS);
         self.rows.push(row);
         if self.rows.len() > MAX_HISTORY {
@@ -78,10 +78,9 @@ impl JobRun {
         let recomputed = self.tiles.iter().map(TileRun::stale_noise_pixels).sum();
         let job = self.noise();
         let row = [self.elapsed_ms(now) as f64 / 1000.0, self.samples_done(), job.unwrap_or(0.0)];
-        self.history.record(row, recomputed);
         // Every tile's relMSE is fresh after `noise()`: the frames' figures cost a sum each.
         let frames = (0..self.frame_count()).map(|i| self.frame_noise(i)).collect();
-        self.history.seen = Some(NoiseSeen { job, frames });
+        self.history.record(row, recomputed, NoiseSeen { job, frames });
     }
 
     /// Makes status requests compute the noise afresh (the job has ended: its tiles will not

@@ -1,5 +1,5 @@
 //! A job's noise-against-time rows: spaced by what the last row recomputed (`history.rs`).
-use super::history::History;
+use super::history::{History, NoiseSeen};
 use super::tests::{config, drain, sums};
 use super::*;
 
@@ -7,10 +7,10 @@ use super::*;
 fn rows_come_every_100_ms_at_least_and_1_us_later_per_recomputed_pixel() {
     let mut h = History::default();
     assert!(h.due(0), "the first row is due at once");
-    h.record([0.0, 1.0, 0.5], 20_000);
+    h.record([0.0, 1.0, 0.5], 20_000, NoiseSeen::default());
     assert_eq!(h.gap_ms(), 100, "20,000 pixels cost less than the floor");
     assert!(!h.due(99) && h.due(100));
-    h.record([0.1, 2.0, 0.4], 2_500_000);
+    h.record([0.1, 2.0, 0.4], 2_500_000, NoiseSeen::default());
     assert_eq!(h.gap_ms(), 2500);
     assert!(!h.due(2599) && h.due(2600), "the gap counts from the last row's time (0.1 s)");
 }
@@ -19,7 +19,7 @@ fn rows_come_every_100_ms_at_least_and_1_us_later_per_recomputed_pixel() {
 fn past_512_rows_every_other_goes_and_the_newest_stays() {
     let mut h = History::default();
     for i in 0..513 {
-        h.record([i as f64, 0.0, 0.0], 0);
+        h.record([i as f64, 0.0, 0.0], 0, NoiseSeen::default());
     }
     assert_eq!(h.rows.len(), 257, "every other of the first 512, and the newest");
     assert_eq!(h.rows[1][0], 2.0);
