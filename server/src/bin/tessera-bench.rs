@@ -190,7 +190,7 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool, w
                 tokio::spawn(async move { fake_worker(i, http, url, template, deadline, next_with_result).await })
             })
             .collect();
-        let watching: Vec<_> = (0..watchers).map(|_| tokio::spawn(watch(http.clone(), format!("{url}/v1/jobs/{}/events", job.id), deadline))).collect();
+        let watching: Vec<_> = (0..watchers).map(|_| tokio::spawn(watch(url.clone(), job.id.clone(), deadline))).collect();
         let mut total = 0u64;
         for t in tasks {
             total += t.await??;
@@ -208,20 +208,19 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool, w
     tessera_server::say!("  {units} units in {elapsed:.2} s = {:.0} unit round trips/s", units as f64 / elapsed);
     tessera_server::say!("  merge cost {:.1} µs per unit (decode excluded)", merge_ns / units.max(1) as f64 / 1000.0);
     if watchers > 0 {
-        tessera_server::say!("  {watchers} clients followed the job's events: {events} progress events in all");
+        tessera_server::say!("  {watchers} clients followed the job's events: {events} statuses received in all");
     }
     Ok(())
 }
 
-/// Reads the event stream at `url` until `deadline`; returns the progress events received.
-async fn watch(http: reqwest::Client, url: String, deadline: Instant) -> anyhow::Result<u64> {
-    let mut resp = http.get(url).header("accept", "text/event-stream").send().await?.error_for_status()?;
-    const PROGRESS: &[u8] = b"event: progress";
+/// Follows job `id` as `tessera render` does (its event stream, through the CLI's own client)
+/// until `deadline`; returns the statuses received.
+async fn watch(url: String, id: String, deadline: Instant) -> anyhow::Result<u64> {
+    let coordinator = tessera_server::client::Coordinator::new(&url, None);
     let mut events = 0;
     let until = tokio::time::Instant::from_std(deadline);
-    while let Ok(chunk) = tokio::time::timeout_at(until, resp.chunk()).await {
-        let Some(chunk) = chunk? else { break };
-        events += chunk.windows(PROGRESS.len()).filter(|w| *w == PROGRESS).count() as u64;
+    if let Ok(ended) = tokio::time::timeout_at(until, coordinator.wait(&id, |_| events += 1)).await {
+        ended?;
     }
     Ok(events)
 }
