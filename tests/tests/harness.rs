@@ -9,33 +9,35 @@ pub fn repo_root() -> PathBuf {
 }
 
 /// Path to a freshly built `tessera` binary of the same profile as this test.
-pub fn tessera_bin() -> &'static Path {
-    static BIN: OnceLock<PathBuf> = OnceLock::new();
-    BIN.get_or_init(|| built_bin("tessera"))
+pub fn tessera_bin() -> PathBuf {
+    built_bins().join("tessera")
 }
 
 /// Path to a freshly built `tessera-bench` binary of the same profile as this test.
-pub fn tessera_bench_bin() -> &'static Path {
-    static BIN: OnceLock<PathBuf> = OnceLock::new();
-    BIN.get_or_init(|| built_bin("tessera-bench"))
+pub fn tessera_bench_bin() -> PathBuf {
+    built_bins().join("tessera-bench")
 }
 
-/// Built as `cargo test --workspace` (the README's test command) builds the tests: in the same
-/// profile (`test`, or `release` under `--release`) and with the features that command resolves
-/// (the workspace's, unified with its dev-dependencies' and every test target's), so every library
-/// the binaries link is one that run already compiled and only the binaries themselves are built
-/// (≈ 30 s). `cargo build -p tessera-server` in the dev profile resolved other features for the
-/// shared dependencies, so it rebuilt them and the workspace's crates: ≈ 4 minutes of a cold CI run.
-fn built_bin(name: &str) -> PathBuf {
-    let release = !cfg!(debug_assertions);
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut cmd = Command::new(cargo);
-    cmd.args(["build", "-q", "--workspace", "--tests", "--bins"]).current_dir(repo_root());
-    cmd.arg(if release { "--release" } else { "--profile=test" });
-    let status = cmd.status().expect("run cargo build");
-    assert!(status.success(), "building {name} failed");
-    let target = std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| repo_root().join("target"));
-    target.join(if release { "release" } else { "debug" }).join(name)
+/// The directory of the workspace's binaries, built once per test process as `cargo test
+/// --workspace` (the README's test command) builds the tests: in the same profile (`test`, or
+/// `release` under `--release`) and with the features that command resolves (the workspace's,
+/// unified with its dev-dependencies' and every test target's), so every library the binaries
+/// link is one that run already compiled and only the binaries themselves are built (≈ 30 s).
+/// `cargo build -p tessera-server` in the dev profile resolved other features for the shared
+/// dependencies, so it rebuilt them and the workspace's crates: ≈ 4 minutes of a cold CI run.
+fn built_bins() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let release = !cfg!(debug_assertions);
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        cmd.args(["build", "-q", "--workspace", "--tests", "--bins"]).current_dir(repo_root());
+        cmd.arg(if release { "--release" } else { "--profile=test" });
+        let status = cmd.status().expect("run cargo build");
+        assert!(status.success(), "building the workspace's binaries failed");
+        let target = std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| repo_root().join("target"));
+        target.join(if release { "release" } else { "debug" })
+    })
 }
 
 pub fn temp_dir(name: &str) -> PathBuf {
