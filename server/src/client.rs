@@ -60,6 +60,15 @@ impl Coordinator {
         json_or_problem(resp).await
     }
 
+    /// Deletes a job for good (canceled first if it runs): its record, checkpoints and images.
+    pub async fn delete(&self, id: &str) -> anyhow::Result<()> {
+        let resp = self.req(reqwest::Method::DELETE, &format!("/v1/jobs/{id}?purge=true")).send().await.context("deleting the job")?;
+        if !resp.status().is_success() {
+            bail!("{}", problem_text(resp).await);
+        }
+        Ok(())
+    }
+
     pub async fn bytes(&self, path: &str) -> anyhow::Result<Vec<u8>> {
         let resp = self.req(reqwest::Method::GET, path).send().await.with_context(|| format!("GET {path}"))?;
         if !resp.status().is_success() {

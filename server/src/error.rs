@@ -75,7 +75,9 @@ fn field_in(detail: &str) -> Option<String> {
     if let Some(rest) = detail.split("field `").nth(1) {
         return rest.split('`').next().map(str::to_string);
     }
-    let body = detail.split("target type: ").nth(1).unwrap_or(detail);
+    let body = detail.split("target type: ").nth(1).or_else(|| detail.split("as JSON: ").nth(1)).unwrap_or(detail);
     let (path, _) = body.split_once(": ")?;
+    // An array element ("background[0]") is its field's fault.
+    let path = path.split('[').next().unwrap_or(path);
     (!path.contains(' ') && !path.is_empty()).then(|| path.to_string())
 }

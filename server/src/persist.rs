@@ -37,11 +37,12 @@ impl Shared {
             let mut s = self.scheduler.lock().expect("lock");
             for j in &jobs {
                 let tiles: Vec<(u32, u32)> = j.tiles.iter().map(|t| (t.tile, t.upto)).collect();
-                s.mark_persisted(j.record.seq, j.revision, &tiles);
+                s.mark_persisted(j.record.seq, j.revision, &tiles, &j.released_files);
             }
         }
         for j in &jobs {
             store.remove_superseded(&j.record.cfg.id, &j.tiles);
+            store.remove_tile_files(&j.record.cfg.id, &j.released_files);
         }
         *self.checkpoint_cost.lock().expect("lock") = t0.elapsed();
         Ok(jobs.len())

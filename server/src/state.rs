@@ -9,7 +9,6 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
-use tessera_proto::JobState;
 use tokio::sync::broadcast;
 
 #[derive(Clone, Debug)]
@@ -174,30 +173,32 @@ impl Shared {
         Some(self.image_path(job_id, job.is_animation().then(|| job.frame_number(index))))
     }
 
-    /// Makes a finished job durable, then writes each frame's EXR once (see [`Self::image_path`]):
-    /// every later request serves that file, so a job's EXR is the same bytes however often it is
-    /// fetched (the `exr` crate writes attributes in hash order, so two encodings can differ).
+    /// Makes an ended job (done, canceled or failed) durable, writes each frame's EXR once (see
+    /// [`Self::image_path`]), then drops the job's merged sums: every later request serves those
+    /// files, so a job's EXR is the same bytes however often it is fetched (the `exr` crate writes
+    /// attributes in hash order, so two encodings can differ), and a coordinator that has run
+    /// many jobs holds none of their pixels. An image that cannot be written keeps the sums
+    /// (encoded on request, and retried on the next request or start).
     pub fn finalize(&self, job_id: &str) {
         let _one_at_a_time = self.finalize_lock.lock().expect("lock");
         let frames: Vec<(usize, Option<u32>)> = {
             let sched = self.scheduler.lock().expect("lock");
             let Some(job) = sched.job(job_id) else { return };
+            if !job.state.is_final() || job.sums_released() {
+                return;
+            }
             (0..job.frame_count()).map(|i| (i, job.is_animation().then(|| job.frame_number(i)))).collect()
         };
         let missing: Vec<_> = frames.into_iter().filter(|(_, n)| !self.image_path(job_id, *n).exists()).collect();
-        if missing.is_empty() {
-            return;
-        }
-        if let Err(e) = self.checkpoint() {
-            tracing::error!(job = job_id, "checkpointing the finished job failed (it stays in memory, retried): {e:#}");
+        if !missing.is_empty()
+            && let Err(e) = self.checkpoint()
+        {
+            tracing::error!(job = job_id, "checkpointing the ended job failed (retried): {e:#}");
         }
         for (index, number) in missing {
             let snapshot = {
                 let sched = self.scheduler.lock().expect("lock");
                 let Some(job) = sched.job(job_id) else { return };
-                if job.state != JobState::Done {
-                    return;
-                }
                 JobImage::of(job, index, self.now())
             };
             let bytes = match snapshot.encode_exr() {
@@ -209,11 +210,43 @@ impl Shared {
             };
             if let Err(e) = write_atomically(&self.image_path(job_id, number), &bytes) {
                 tracing::error!(job = job_id, "writing the final image failed (it is encoded on request instead): {e}");
+                return;
             }
         }
-        tracing::info!(job = job_id, "job done");
+        self.scheduler.lock().expect("lock").release_sums(job_id);
+        tracing::info!(job = job_id, "job ended: images written, sums released");
+    }
+
+    /// Deletes a job for good: it is canceled if it still runs, then its record, checkpoints
+    /// and images go. False for an unknown job. The record goes first, so a crash midway leaves
+    /// at worst files that no job names, never a job whose files are gone.
+    pub fn purge(&self, job_id: &str) -> anyhow::Result<bool> {
+        // Neither a finalize (which writes images) nor a checkpoint (which writes the record
+        // back) may run in between.
+        let _no_finalize = self.finalize_lock.lock().expect("lock");
+        let _no_checkpoint = self.persist_lock.lock().expect("lock");
+        let images: Vec<PathBuf> = {
+            let sched = self.scheduler.lock().expect("lock");
+            let Some(job) = sched.job(job_id) else { return Ok(false) };
+            (0..job.frame_count()).map(|i| self.image_path(job_id, job.is_animation().then(|| job.frame_number(i)))).collect()
+        };
+        if let Some(store) = &self.store {
+            store.delete_job(job_id)?;
+        }
+        {
+            let mut sched = self.scheduler.lock().expect("lock");
+            sched.cancel(job_id, self.now());
+            sched.forget(job_id);
+        }
+        for path in images {
+            match std::fs::remove_file(&path) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => tracing::warn!(job = job_id, "removing {}: {e}", path.display()),
+                _ => {}
+            }
+        }
+        tracing::info!(job = job_id, "job deleted");
+        Ok(true)
     }
 }
-
 
 pub use crate::status::job_status;

@@ -30,7 +30,7 @@ enum Command {
     Work(work::WorkArgs),
     /// Submit a job to a coordinator, optionally wait for it and download the image.
     Submit(submit::SubmitArgs),
-    /// Read, pause, resume or cancel a job on a coordinator; prints its state after.
+    /// Read, pause, resume, cancel or delete a job on a coordinator; prints its state after.
     Job(job::JobCmdArgs),
     /// Check that a coordinator answers on /healthz (exit code 0) or not (1); for container probes.
     Healthcheck(healthcheck::HealthcheckArgs),

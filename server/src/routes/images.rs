@@ -1,8 +1,9 @@
 //! The images of a job: its EXR and PNG preview, per frame for animations, and the whole
 //! sequence as a zip.
 //!
-//! A frame whose job is done is served from its file (`crate::state::Shared::image_path`,
-//! written once, so the bytes never change); otherwise the current merge is encoded on request.
+//! A frame whose job has ended (done, canceled or failed) is served from its file
+//! (`crate::state::Shared::image_path`, written once, so the bytes never change, after which the
+//! job's sums are dropped); otherwise the current merge is encoded on request.
 //! `/v1/jobs/{id}/image.exr` and `preview.png` show a job's first frame.
 use crate::error::AppError;
 use crate::state::{AppState, JobImage};
@@ -12,7 +13,7 @@ use axum::response::IntoResponse;
 use std::io::Write;
 use tessera_proto::Problem;
 
-/// The job's OpenEXR image (its first frame): final when done, else the current merge.
+/// The job's OpenEXR image (its first frame): final once the job has ended, else the current merge.
 #[utoipa::path(get, path = "/v1/jobs/{id}/image.exr", tag = "jobs", params(("id" = String, Path)),
     responses((status = 200, content_type = "image/x-exr"), (status = 404, body = Problem)))]
 pub async fn image_exr(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
@@ -27,7 +28,7 @@ pub async fn preview_png(State(st): State<AppState>, Path(id): Path<String>) -> 
     png(&st, &id, 0).await
 }
 
-/// One frame's OpenEXR image, by frame number: final when the job is done, else the current merge.
+/// One frame's OpenEXR image, by frame number: final once the job has ended, else the current merge.
 #[utoipa::path(get, path = "/v1/jobs/{id}/frames/{n}/image.exr", tag = "jobs", params(("id" = String, Path), ("n" = u32, Path)),
     responses((status = 200, content_type = "image/x-exr"), (status = 404, body = Problem)))]
 pub async fn frame_exr(State(st): State<AppState>, Path((id, n)): Path<(String, u32)>) -> Result<impl IntoResponse, AppError> {
@@ -54,7 +55,7 @@ pub async fn frames_zip(State(st): State<AppState>, Path(id): Path<String>) -> R
         let job = s.job(&id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
         (0..job.frame_count()).map(|i| job.frame_number(i)).collect::<Vec<_>>()
     };
-    let finalized = finalize_if_done(&st, &id).await?;
+    let finalized = finalize_if_ended(&st, &id).await?;
     let mut files = Vec::with_capacity(numbers.len());
     for (index, n) in numbers.into_iter().enumerate() {
         files.push((format!("frame_{n:04}.exr"), exr_bytes(&st, &id, index, finalized).await?));
@@ -84,41 +85,72 @@ fn frame_index(st: &AppState, id: &str, n: u32) -> Result<usize, AppError> {
 }
 
 async fn frame_exr_bytes(st: &AppState, id: &str, index: usize) -> Result<Vec<u8>, AppError> {
-    let finalized = finalize_if_done(st, id).await?;
+    let finalized = finalize_if_ended(st, id).await?;
     exr_bytes(st, id, index, finalized).await
 }
 
-/// True when the job is done and its frame files are written (written now if it finished a
-/// moment ago and they are not yet).
-async fn finalize_if_done(st: &AppState, id: &str) -> Result<bool, AppError> {
-    let done = st.scheduler.lock().expect("lock").job(id).is_some_and(|j| j.state == tessera_proto::JobState::Done);
-    if done {
+/// True when the job has ended; its frame files are then written (now, if it ended a moment ago
+/// and they are not yet).
+async fn finalize_if_ended(st: &AppState, id: &str) -> Result<bool, AppError> {
+    let ended = st.scheduler.lock().expect("lock").job(id).is_some_and(|j| j.state.is_final());
+    if ended {
         let (st2, id2) = (st.clone(), id.to_string());
         tokio::task::spawn_blocking(move || st2.finalize(&id2)).await.map_err(AppError::internal)?;
     }
-    Ok(done)
+    Ok(ended)
 }
 
-/// A frame's EXR: its final file when `finalized`, else the current merge encoded now.
+/// A frame's EXR: its final file when `finalized`, else the current merge encoded now (also
+/// for an ended job whose file could not be written, as long as its sums are kept).
 async fn exr_bytes(st: &AppState, id: &str, index: usize, finalized: bool) -> Result<Vec<u8>, AppError> {
-    if finalized
-        && let Some(path) = st.frame_image_path(id, index)
-        && let Ok(bytes) = tokio::fs::read(path).await
-    {
+    if finalized && let Some(bytes) = image_file(st, id, index).await? {
         return Ok(bytes);
     }
     let snapshot = snapshot(st, id, index)?;
     tokio::task::spawn_blocking(move || snapshot.encode_exr()).await.map_err(AppError::internal)?.map_err(AppError::internal)
 }
 
+/// The bytes of an ended job's frame file; None when it is not there and the job still has
+/// its sums to encode instead; an error when neither is left.
+async fn image_file(st: &AppState, id: &str, index: usize) -> Result<Option<Vec<u8>>, AppError> {
+    let Some(path) = st.frame_image_path(id, index) else { return Err(AppError::not_found(format!("no job {id:?}"))) };
+    match tokio::fs::read(&path).await {
+        Ok(bytes) => Ok(Some(bytes)),
+        Err(e) if released(st, id) => {
+            Err(AppError::not_found(format!("the image of job {id:?} was written to {} and cannot be read: {e}", path.display())))
+        }
+        Err(_) => Ok(None),
+    }
+}
+
+fn released(st: &AppState, id: &str) -> bool {
+    st.scheduler.lock().expect("lock").job(id).is_some_and(|j| j.sums_released())
+}
+
+/// A frame's PNG preview: from its EXR file once the job has ended (the same pixels: the file
+/// holds the merge's f32 means), else from the current merge.
 async fn png(st: &AppState, id: &str, index: usize) -> Result<impl IntoResponse + use<>, AppError> {
-    let snapshot = snapshot(st, id, index)?;
-    let png = tokio::task::spawn_blocking(move || snapshot.encode_png()).await.map_err(AppError::internal)?;
+    let png = if finalize_if_ended(st, id).await?
+        && let Some(bytes) = image_file(st, id, index).await?
+    {
+        tokio::task::spawn_blocking(move || {
+            crate::output::decode_exr(&bytes).map(|(l, _)| crate::output::encode_png_preview(l.width, l.height, &l.rgb))
+        })
+        .await
+        .map_err(AppError::internal)?
+        .map_err(AppError::internal)?
+    } else {
+        let snapshot = snapshot(st, id, index)?;
+        tokio::task::spawn_blocking(move || snapshot.encode_png()).await.map_err(AppError::internal)?
+    };
     Ok(([(header::CONTENT_TYPE, "image/png"), (header::CACHE_CONTROL, "no-store")], png))
 }
 
 fn snapshot(st: &AppState, id: &str, index: usize) -> Result<JobImage, AppError> {
     let s = st.scheduler.lock().expect("lock");
     let job = s.job(id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
+    if job.sums_released() {
+        return Err(AppError::not_found(format!("the sums of job {id:?} were dropped once its images were written")));
+    }
     Ok(JobImage::of(job, index, st.now()))
 }

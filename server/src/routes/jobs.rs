@@ -1,4 +1,4 @@
-//! `/v1/jobs`: submit, list, read, pause, resume, cancel (the images of a job are in `images.rs`).
+//! `/v1/jobs`: submit, list, read, pause, resume, cancel, delete (the images of a job are in `images.rs`).
 use super::validate::job_config;
 use crate::error::{AppError, Json};
 use crate::state::{AppState, job_status};
@@ -68,11 +68,32 @@ pub fn status_of(st: &AppState, id: &str) -> Result<Job, AppError> {
     Ok(job_status(job, st.now(), s.workers_on(id), s.max_failures()))
 }
 
-/// Cancel a job; its workers are told within one heartbeat.
-#[utoipa::path(delete, path = "/v1/jobs/{id}", tag = "jobs", params(("id" = String, Path)), responses((status = 200, body = Job), (status = 404, body = Problem)))]
-pub async fn cancel(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<Job>, AppError> {
+/// `DELETE /v1/jobs/{id}` options.
+#[derive(Debug, Deserialize, utoipa::IntoParams)]
+pub struct DeleteQuery {
+    /// Also delete the job for good: its record, checkpoints and images (it is canceled first
+    /// if it still runs). Without it the job is only canceled, and stays listed with its images.
+    pub purge: Option<bool>,
+}
+
+/// Cancel a job (its workers are told within one heartbeat); with `?purge=true`, delete it.
+#[utoipa::path(delete, path = "/v1/jobs/{id}", tag = "jobs", params(("id" = String, Path), DeleteQuery),
+    responses((status = 200, body = Job, description = "canceled"), (status = 204, description = "deleted (purge)"), (status = 404, body = Problem)))]
+pub async fn cancel(State(st): State<AppState>, Path(id): Path<String>, Query(q): Query<DeleteQuery>) -> Result<axum::response::Response, AppError> {
+    if q.purge == Some(true) {
+        let (st2, id2) = (st.clone(), id.clone());
+        let found = tokio::task::spawn_blocking(move || st2.purge(&id2)).await.map_err(AppError::internal)?.map_err(AppError::internal)?;
+        if !found {
+            return Err(AppError::not_found(format!("no job {id:?}")));
+        }
+        st.notify(&id);
+        return Ok(StatusCode::NO_CONTENT.into_response());
+    }
     st.scheduler.lock().expect("lock").cancel(&id, st.now()).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
-    changed(st, id, "cancel").await
+    let answer = changed(st.clone(), id.clone(), "cancel").await;
+    // Its images are final now: written in the background, after which its sums are dropped.
+    tokio::task::spawn_blocking(move || st.finalize(&id));
+    answer.map(IntoResponse::into_response)
 }
 
 /// Pause a job: it is leased no new units (other jobs get the workers); units already leased

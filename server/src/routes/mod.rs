@@ -18,6 +18,8 @@ mod tests_bad_input_cases;
 #[cfg(test)]
 mod tests_durability;
 #[cfg(test)]
+mod tests_ended;
+#[cfg(test)]
 mod tests_dashboard;
 #[cfg(test)]
 mod tests_frames;

@@ -30,11 +30,30 @@ pub struct JobRecord {
     pub renderers: Vec<String>,
 }
 
-/// How many batches a tile's checkpoint file holds (0: no file), and its noise stop.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// How many batches a tile's checkpoint file holds (0: no file), and its noise stop. A released
+/// tile (its job ended and its image is written) has no file: `released` keeps what the job's
+/// status reports of it, and `upto` how many batches it merged.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct TileMark {
     pub upto: u32,
     pub stop_at: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub released: Option<ReleasedTile>,
+}
+
+impl TileMark {
+    /// The batch count of the tile's checkpoint file, if it has one.
+    pub fn file_upto(&self) -> Option<u32> {
+        (self.upto > 0 && self.released.is_none()).then_some(self.upto)
+    }
+}
+
+/// A released tile's figures, kept in its job's record instead of its sums.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ReleasedTile {
+    pub noise: Option<f64>,
+    pub dropped: u64,
+    pub max_weight: f64,
 }
 
 /// A tile whose merged sums moved past its last checkpoint.
@@ -52,6 +71,9 @@ pub struct JobCheckpoint {
     pub record: JobRecord,
     pub revision: u64,
     pub tiles: Vec<TileCheckpoint>,
+    /// (tile, batches) of the files of tiles released since they were written: once the record
+    /// saying so is committed, the image on disk replaces them and they are deleted.
+    pub released_files: Vec<(u32, u32)>,
 }
 
 /// A tile's sums read back from its checkpoint file.
@@ -70,7 +92,7 @@ impl JobRun {
             elapsed_ms: self.elapsed_ms(now),
             history: self.history.rows.clone(),
             message: self.message.clone(),
-            tiles: self.tiles.iter().map(|t| TileMark { upto: t.merged_upto, stop_at: t.stop_at }).collect(),
+            tiles: self.tiles.iter().map(|t| TileMark { upto: t.merged_upto, stop_at: t.stop_at, released: t.summary() }).collect(),
             contributions: self.contributions.clone(),
             renderers: self.renderers.clone(),
         }
@@ -81,7 +103,7 @@ impl JobRun {
             .tiles
             .iter()
             .enumerate()
-            .filter(|(_, t)| t.merged_upto != t.persisted_upto)
+            .filter(|(_, t)| !t.released && t.merged_upto != t.persisted_upto)
             .map(|(i, t)| TileCheckpoint {
                 tile: i as u32,
                 upto: t.merged_upto,
@@ -91,7 +113,14 @@ impl JobRun {
                 max_weight: t.max_weight,
             })
             .collect();
-        JobCheckpoint { record: self.record(now), revision: self.revision, tiles }
+        let released_files = self
+            .tiles
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| t.released && t.persisted_upto > 0)
+            .map(|(i, t)| (i as u32, t.persisted_upto))
+            .collect();
+        JobCheckpoint { record: self.record(now), revision: self.revision, tiles, released_files }
     }
 }
 
@@ -106,13 +135,17 @@ impl Scheduler {
         self.job(id).map(|j| j.record(now))
     }
 
-    /// Notes that a checkpoint is on disk.
-    pub fn mark_persisted(&mut self, seq: u64, revision: u64, tiles: &[(u32, u32)]) {
+    /// Notes that a checkpoint is on disk, and that the files of the released tiles it names
+    /// are gone.
+    pub fn mark_persisted(&mut self, seq: u64, revision: u64, tiles: &[(u32, u32)], released_files: &[(u32, u32)]) {
         let Some(job) = self.jobs.get_mut(&seq) else { return };
         job.persisted_revision = job.persisted_revision.max(revision);
         for &(tile, upto) in tiles {
             let t = &mut job.tiles[tile as usize];
             t.persisted_upto = t.persisted_upto.max(upto);
+        }
+        for &(tile, _) in released_files {
+            job.tiles[tile as usize].persisted_upto = 0;
         }
     }
 
@@ -122,11 +155,16 @@ impl Scheduler {
         let mut job = JobRun::new(rec.cfg, rec.seq);
         let (batch_spp, spp) = (job.cfg.batch_spp, job.cfg.spp);
         for (i, (t, mark)) in job.tiles.iter_mut().zip(&rec.tiles).enumerate() {
+            let samples = (mark.upto * batch_spp).min(spp) as u64;
+            if let Some(summary) = &mark.released {
+                t.restore_released(mark.upto, mark.stop_at, summary, samples);
+                continue;
+            }
             if mark.upto == 0 {
                 continue;
             }
             if let Some(r) = read(i as u32, *mark, t.rect.pixel_count()) {
-                t.restore(mark.upto, mark.stop_at, r.sums, r.dropped, r.max_weight, (mark.upto * batch_spp).min(spp) as u64);
+                t.restore(mark.upto, mark.stop_at, r.sums, r.dropped, r.max_weight, samples);
             }
         }
         job.state = rec.state;
@@ -154,7 +192,8 @@ impl Scheduler {
         state
     }
 
-    /// Drops a job that was never accepted (its record could not be stored).
+    /// Drops a job and its leases: one that was never accepted (its record could not be
+    /// stored), or one deleted (`Shared::purge`).
     pub fn forget(&mut self, id: &str) {
         if let Some(seq) = self.by_id.remove(id) {
             self.jobs.remove(&seq);

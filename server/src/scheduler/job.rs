@@ -229,8 +229,32 @@ impl JobRun {
         self.message = message;
         self.revision += 1;
         self.tiles.iter_mut().for_each(TileRun::drain);
+        if state == JobState::Done {
+            // Ended by its time limit: each tile stops where it is, so a restored record reads
+            // as the finished job it is, not as one whose checkpoints went missing.
+            self.tiles.iter_mut().for_each(TileRun::stop_here);
+        }
         self.pending_by.clear();
         self.forget_reported_noise();
+    }
+
+    /// Drops an ended job's merged sums once its images are written: the job keeps its counts
+    /// and noise for its status, and its images are served from their files. False when the job
+    /// has not ended (a running job's sums are its image).
+    pub fn release_sums(&mut self) -> bool {
+        if !self.state.is_final() {
+            return false;
+        }
+        if !self.sums_released() {
+            self.tiles.iter_mut().for_each(TileRun::release);
+            self.revision += 1;
+        }
+        true
+    }
+
+    /// Whether the merged sums were dropped (`release_sums`).
+    pub fn sums_released(&self) -> bool {
+        self.tiles.first().is_some_and(|t| t.released)
     }
 
     /// Pixels of one frame.

@@ -44,7 +44,7 @@ mod tests_pause;
 mod tests_renderers;
 mod tile;
 
-pub use durable::{JobCheckpoint, JobRecord, RestoredTile, TileCheckpoint, TileMark};
+pub use durable::{JobCheckpoint, JobRecord, ReleasedTile, RestoredTile, TileCheckpoint, TileMark};
 pub use frames::{FramePrepare, PrepareKind};
 /// A worker's resident memory, as it reports with a result (read by `tessera_worker::memory`).
 pub use tessera_worker::memory::ProcessMemory;
@@ -229,6 +229,13 @@ impl Scheduler {
             self.jobs.get_mut(&seq).expect("indexed").finish(JobState::Failed, now, Some(why));
             self.revoke_unwanted(seq);
         }
+    }
+
+    /// Drops an ended job's merged sums (its images are written; see `JobRun::release_sums`).
+    /// False for an unknown job or one still running.
+    pub fn release_sums(&mut self, id: &str) -> bool {
+        let Some(&seq) = self.by_id.get(id) else { return false };
+        self.jobs.get_mut(&seq).is_some_and(JobRun::release_sums)
     }
 
     /// Jobs that ended by their time limit since the last call (whichever call noticed it).

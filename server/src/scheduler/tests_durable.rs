@@ -22,8 +22,14 @@ impl Disk {
             for t in &cp.tiles {
                 self.tiles.insert((cp.record.cfg.id.clone(), t.tile, t.upto), (t.sums.clone(), t.dropped, t.max_weight));
             }
+            for t in cp.tiles.iter().filter(|t| t.previous_upto > 0) {
+                self.tiles.remove(&(cp.record.cfg.id.clone(), t.tile, t.previous_upto)); // superseded
+            }
             self.records.insert(cp.record.cfg.id.clone(), cp.record.clone());
-            s.mark_persisted(cp.record.seq, cp.revision, &cp.tiles.iter().map(|t| (t.tile, t.upto)).collect::<Vec<_>>());
+            s.mark_persisted(cp.record.seq, cp.revision, &cp.tiles.iter().map(|t| (t.tile, t.upto)).collect::<Vec<_>>(), &cp.released_files);
+            for &(tile, upto) in &cp.released_files {
+                self.tiles.remove(&(cp.record.cfg.id.clone(), tile, upto)).expect("a released tile's file was written");
+            }
         }
         cps.len()
     }
@@ -190,4 +196,40 @@ fn a_worker_that_keeps_failing_a_job_is_kept_off_it() {
     s.submit(config("k", 8, 0));
     let other = s.lease(&bad, now).unwrap().expect("the blocked worker still serves other jobs");
     assert_eq!(other.job_id, "k");
+}
+
+/// What a job's status reports of its tiles: samples, noise, dropped samples, largest weight.
+fn figures(s: &Scheduler, id: &str) -> (f64, Option<f64>, u64, f64, Option<f64>) {
+    let j = s.job(id).unwrap();
+    (j.samples_done(), j.noise(), j.dropped(), j.max_weight(), j.frame_noise(0))
+}
+
+#[test]
+fn released_sums_leave_the_figures_and_their_files_go_once_the_record_says_so() {
+    let mut s = Scheduler::new(TIMEOUT);
+    let w = s.register_worker("a", 1, 0);
+    s.submit(config("j", 16, 0));
+    assert!(!s.release_sums("j"), "a queued job's sums are its image");
+    let mut disk = Disk::default();
+    for (i, g) in drain(&mut s, &w, 0).into_iter().enumerate() {
+        s.complete(&g.lease_id, sums(&g, 0.5 + (i % 5) as f64), 1).unwrap();
+        if i % 7 == 0 {
+            disk.save(&mut s, 1);
+        }
+    }
+    assert_eq!(s.job("j").unwrap().state, JobState::Done);
+    let before = figures(&s, "j");
+    assert!(before.1.unwrap() > 0.0);
+    assert!(s.release_sums("j"));
+    assert!(s.job("j").unwrap().tiles.iter().all(|t| t.merged.is_empty()));
+    assert_eq!(figures(&s, "j"), before, "counts and noise outlive the sums");
+    disk.save(&mut s, 2);
+    assert!(disk.tiles.is_empty(), "every tile file is replaced by the image");
+    assert!(s.checkpoint(3).is_empty(), "nothing left to write or delete");
+
+    let back = disk.boot(1, None);
+    let job = back.job("j").unwrap();
+    assert_eq!(job.state, JobState::Done, "restored as ended, with no tile to read");
+    assert!(job.sums_released());
+    assert_eq!(figures(&back, "j"), before);
 }

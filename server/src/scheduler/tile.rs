@@ -1,6 +1,7 @@
 //! One tile of a job: which batches are issued, buffered and merged, and its f64 sums.
 use crate::image::rel_mse;
 use std::cell::Cell;
+use super::durable::ReleasedTile;
 use std::collections::{BTreeMap, BTreeSet};
 use tessera_proto::{PartialSums, TileRect};
 use tessera_worker::tracer::PixelSums;
@@ -10,7 +11,11 @@ pub struct TileRun {
     batches: u32,
     next_new: u32,
     requeued: BTreeSet<u32>,
+    /// The merged sums: empty until the first batch merges (a queued job holds no sums), and
+    /// again once released (`release`: the tile's image is on disk and it takes no more batches).
     pub merged: Vec<PixelSums>,
+    /// The sums were dropped after the image was written; `rel_mse` keeps their noise.
+    pub(super) released: bool,
     pub(super) merged_upto: u32,
     /// Batches whose sums are on disk (see `crate::persist`); merged_upto > persisted_upto
     /// means the tile needs a checkpoint.
@@ -34,7 +39,8 @@ impl TileRun {
             batches,
             next_new: 0,
             requeued: BTreeSet::new(),
-            merged: vec![PixelSums::default(); rect.pixel_count()],
+            merged: Vec::new(),
+            released: false,
             merged_upto: 0,
             persisted_upto: 0,
             pending: BTreeMap::new(),
@@ -48,7 +54,7 @@ impl TileRun {
 
     /// Puts back a checkpoint: `sums` hold batches 0..upto; everything after is issued afresh.
     pub fn restore(&mut self, upto: u32, stop_at: Option<u32>, sums: Vec<PixelSums>, dropped: u64, max_weight: f64, samples_per_pixel: u64) {
-        debug_assert_eq!(sums.len(), self.merged.len());
+        debug_assert_eq!(sums.len(), self.rect.pixel_count());
         self.merged = sums;
         self.merged_upto = upto;
         self.persisted_upto = upto;
@@ -58,6 +64,33 @@ impl TileRun {
         self.max_weight = max_weight;
         self.merged_samples = samples_per_pixel * self.rect.pixel_count() as u64;
         self.rel_mse.set(None);
+    }
+
+    /// Puts back a tile that was released before the checkpoint: its counts and noise, no sums.
+    pub fn restore_released(&mut self, upto: u32, stop_at: Option<u32>, summary: &ReleasedTile, samples_per_pixel: u64) {
+        self.merged_upto = upto;
+        self.persisted_upto = 0;
+        self.next_new = upto;
+        self.stop_at = stop_at;
+        self.dropped = summary.dropped;
+        self.max_weight = summary.max_weight;
+        self.merged_samples = samples_per_pixel * self.rect.pixel_count() as u64;
+        self.rel_mse.set(summary.noise);
+        self.released = true;
+    }
+
+    /// Drops the sums once the tile's image is written and it takes no more batches, keeping
+    /// its counts and noise for the job's status.
+    pub(super) fn release(&mut self) {
+        self.noise();
+        self.merged = Vec::new();
+        self.released = true;
+        self.drain();
+    }
+
+    /// What a checkpoint keeps of a released tile instead of its sums.
+    pub(super) fn summary(&self) -> Option<ReleasedTile> {
+        self.released.then(|| ReleasedTile { noise: self.rel_mse.get(), dropped: self.dropped, max_weight: self.max_weight })
     }
 
     fn limit(&self) -> u32 {
@@ -121,6 +154,10 @@ impl TileRun {
     }
 
     fn merge_next(&mut self, sums: PartialSums, noise_stop: Option<NoiseStop>) {
+        debug_assert!(!self.released, "a released tile takes no batches");
+        if self.merged.is_empty() {
+            self.merged = vec![PixelSums::default(); self.rect.pixel_count()];
+        }
         let per_pixel = (sums.samples[1] - sums.samples[0]) as u64;
         for (acc, p) in self.merged.iter_mut().zip(&sums.pixels) {
             acc.merge(&PixelSums { sum: p.sum, sum_sq: p.sum_sq, sum_lum_sq: p.sum_lum_sq, count: p.count });
@@ -136,6 +173,13 @@ impl TileRun {
                 self.stop_at = Some(self.merged_upto);
                 self.pending.clear();
             }
+        }
+    }
+
+    /// Takes no batch past those merged (the job ended by its time limit).
+    pub(super) fn stop_here(&mut self) {
+        if !self.complete() {
+            self.stop_at = Some(self.merged_upto);
         }
     }
 

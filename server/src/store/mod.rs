@@ -3,7 +3,8 @@
 //! ```text
 //! tessera.redb                     redb: table `jobs` (job id → JSON JobRecord), `meta` (boot count)
 //! jobs/<job id>/t<tile>-b<n>.sums  a tile's merged f64 sums after its batches 0..n (tile_file.rs)
-//! jobs/<job id>.exr                a finished job's image
+//! jobs/<job id>.exr                an ended job's image (`<job id>.f<frame>.exr` per frame of an
+//!                                  animation); once written, the job's sums and their files go
 //! scenes/<sha256>                  uploaded scenes, content-addressed (crate::scenes)
 //! ```
 //!
@@ -108,6 +109,22 @@ impl Store {
         })
     }
 
+    /// Deletes a job's record (one transaction; a restart no longer sees the job), then its
+    /// checkpoint files.
+    pub fn delete_job(&self, job_id: &str) -> anyhow::Result<()> {
+        self.with_db(|db| {
+            let tx = db.begin_write()?;
+            tx.open_table(JOBS)?.remove(job_id)?;
+            tx.commit()?;
+            Ok(())
+        })?;
+        match std::fs::remove_dir_all(self.job_dir(job_id)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => tracing::warn!(job = job_id, "removing its checkpoint files: {e}"),
+            _ => {}
+        }
+        Ok(())
+    }
+
     fn job_dir(&self, job_id: &str) -> PathBuf {
         self.jobs_dir.join(job_id)
     }
@@ -138,6 +155,18 @@ impl Store {
         }
     }
 
+    /// Deletes the checkpoint files `(tile, batches)` of tiles whose image is written (their
+    /// records, committed, no longer name them).
+    pub fn remove_tile_files(&self, job_id: &str, files: &[(u32, u32)]) {
+        for &(tile, upto) in files {
+            let _ = std::fs::remove_file(self.job_dir(job_id).join(tile_file::file_name(tile, upto)));
+        }
+        if !files.is_empty() {
+            // Gone once the job's last file is: an ended job keeps only its record and images.
+            let _ = std::fs::remove_dir(self.job_dir(job_id));
+        }
+    }
+
     /// Reads a tile's checkpoint back, checking it is the one the record names.
     pub fn read_tile(&self, job_id: &str, tile: u32, mark: TileMark, pixels: usize) -> Result<RestoredTile, String> {
         let path = self.job_dir(job_id).join(tile_file::file_name(tile, mark.upto));
@@ -154,7 +183,7 @@ impl Store {
     pub fn remove_orphans(&self, job_id: &str, marks: &[TileMark]) {
         let Ok(entries) = std::fs::read_dir(self.job_dir(job_id)) else { return };
         let keep: std::collections::HashSet<String> =
-            marks.iter().enumerate().filter(|(_, m)| m.upto > 0).map(|(i, m)| tile_file::file_name(i as u32, m.upto)).collect();
+            marks.iter().enumerate().filter_map(|(i, m)| m.file_upto().map(|upto| tile_file::file_name(i as u32, upto))).collect();
         for e in entries.flatten() {
             if !e.file_name().to_str().is_some_and(|n| keep.contains(n)) {
                 tracing::debug!(file = %e.path().display(), "removing an orphaned checkpoint file");

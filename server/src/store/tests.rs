@@ -33,7 +33,7 @@ fn record(upto: u32) -> JobRecord {
         elapsed_ms: 5,
         history: vec![[0.1, 4.0, 0.5]],
         message: None,
-        tiles: vec![TileMark { upto, stop_at: None }],
+        tiles: vec![TileMark { upto, stop_at: None, released: None }],
         contributions: Default::default(),
         renderers: vec!["tessera 0.1.0 src:aaaaaaaaaaaa libm:00000000".into()],
     }
