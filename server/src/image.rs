@@ -3,13 +3,19 @@ use crate::output::ImageLayers;
 use tessera_worker::tracer::PixelSums;
 
 pub fn layers(width: u32, height: u32, pixels: &[PixelSums]) -> ImageLayers {
-    ImageLayers {
-        width: width as usize,
-        height: height as usize,
-        rgb: pixels.iter().map(|p| p.mean().map(|v| v as f32)).collect(),
-        variance: pixels.iter().map(|p| p.variance_of_mean().map(|v| v as f32)).collect(),
-        samples: pixels.iter().map(|p| p.count as f32).collect(),
+    let mut img = ImageLayers::zeroed(width as usize, height as usize);
+    for (i, p) in pixels.iter().enumerate() {
+        set_pixel(&mut img, i, p);
     }
+    img
+}
+
+/// Writes pixel `i`'s mean, variance of the mean and sample count from its sums (an untouched
+/// pixel of a zeroed image is what sums of no samples give).
+pub fn set_pixel(img: &mut ImageLayers, i: usize, p: &PixelSums) {
+    img.rgb[i] = p.mean().map(|v| v as f32);
+    img.variance[i] = p.variance_of_mean().map(|v| v as f32);
+    img.samples[i] = p.count as f32;
 }
 
 /// The relMSE estimate of a `width`-wide block of pixels: mean over pixels and channels of

@@ -31,6 +31,14 @@ pub fn for_scene_builders() {
     }
 }
 
+/// Returns the calling thread's freed pages to the system now, whatever the purge delay: for a
+/// thread that has just freed an image it will not reuse soon (`Shared::finalize`), which would
+/// otherwise hold it until the thread allocates again.
+pub fn return_freed_pages() {
+    // SAFETY: a collection of the calling thread's heap, as mimalloc runs on its own at any time.
+    unsafe { libmimalloc_sys::mi_collect(true) }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -121,6 +121,9 @@ impl AppState {
             start: Instant::now(),
             next_job: AtomicU64::new(0),
         }));
+        for (id, index) in state.remove_stale_frames() {
+            state.write_frame(&id, index);
+        }
         // A crash between a job's last checkpoint and its EXR leaves the image to write again.
         for id in &finished {
             state.finalize(id);
@@ -166,6 +169,25 @@ impl Shared {
         self.config.data_dir.join("jobs").join(name)
     }
 
+    /// Removes the image of every frame of a running job that the restored checkpoints leave
+    /// incomplete: it was written after merges that the crash lost, and is written again when
+    /// the frame completes again (the same pixels). Returns the complete frames whose release
+    /// the crash lost, to write and release again.
+    fn remove_stale_frames(&self) -> Vec<(String, usize)> {
+        let sched = self.scheduler.lock().expect("lock");
+        let mut complete = Vec::new();
+        for job in sched.jobs_newest_first().filter(|j| !j.state.is_final()) {
+            for i in (0..job.frame_count()).filter(|&i| !job.frame_released(i)) {
+                if job.frame_complete(i) {
+                    complete.push((job.cfg.id.clone(), i));
+                } else {
+                    let _ = std::fs::remove_file(self.image_path(&job.cfg.id, job.is_animation().then(|| job.frame_number(i))));
+                }
+            }
+        }
+        complete
+    }
+
     /// The file of frame index `index` of a job, or None when the job is unknown.
     pub fn frame_image_path(&self, job_id: &str, index: usize) -> Option<PathBuf> {
         let sched = self.scheduler.lock().expect("lock");
@@ -189,7 +211,12 @@ impl Shared {
             }
             (0..job.frame_count()).map(|i| (i, job.is_animation().then(|| job.frame_number(i)))).collect()
         };
-        let missing: Vec<_> = frames.into_iter().filter(|(_, n)| !self.image_path(job_id, *n).exists()).collect();
+        let missing: Vec<_> = {
+            let sched = self.scheduler.lock().expect("lock");
+            let Some(job) = sched.job(job_id) else { return };
+            // A frame released while the job ran has its file already (unless it was removed).
+            frames.into_iter().filter(|(i, n)| !job.frame_released(*i) && !self.image_path(job_id, *n).exists()).collect()
+        };
         if !missing.is_empty()
             && let Err(e) = self.checkpoint()
         {
@@ -214,7 +241,32 @@ impl Shared {
             }
         }
         self.scheduler.lock().expect("lock").release_sums(job_id);
+        crate::purge::return_freed_pages();
         tracing::info!(job = job_id, "job ended: images written, sums released");
+    }
+
+    /// Writes the EXR of a frame that completed while its job goes on (an animation's), then
+    /// drops the frame's sums, so a job's memory follows the frames in flight rather than its
+    /// length. The file is the frame's final image: later requests serve it.
+    pub fn write_frame(&self, job_id: &str, index: usize) {
+        let _one_at_a_time = self.finalize_lock.lock().expect("lock");
+        let (snapshot, path) = {
+            let sched = self.scheduler.lock().expect("lock");
+            let Some(job) = sched.job(job_id) else { return };
+            if job.state.is_final() || job.frame_released(index) || !job.frame_complete(index) {
+                return; // an ended job's frames are `finalize`'s
+            }
+            (JobImage::of(job, index, self.now()), self.image_path(job_id, job.is_animation().then(|| job.frame_number(index))))
+        };
+        let written = snapshot.encode_exr().and_then(|bytes| write_atomically(&path, &bytes).map_err(anyhow::Error::from));
+        match written {
+            Ok(()) => {
+                self.scheduler.lock().expect("lock").release_frame(job_id, index);
+                crate::purge::return_freed_pages();
+                tracing::debug!(job = job_id, frame = index, "frame complete: image written, sums released");
+            }
+            Err(e) => tracing::error!(job = job_id, frame = index, "writing a complete frame's image failed (it is kept in memory and written when the job ends): {e:#}"),
+        }
     }
 
     /// Deletes a job for good: it is canceled if it still runs, then its record, checkpoints

@@ -1,9 +1,10 @@
 //! The images of a job: its EXR and PNG preview, per frame for animations, and the whole
 //! sequence as a zip.
 //!
-//! A frame whose job has ended (done, canceled or failed) is served from its file
-//! (`crate::state::Shared::image_path`, written once, so the bytes never change, after which the
-//! job's sums are dropped); otherwise the current merge is encoded on request.
+//! A frame whose job has ended (done, canceled or failed), or an animation's frame that is
+//! complete while the job goes on, is served from its file (`crate::state::Shared::image_path`,
+//! written once, so the bytes never change, after which the frame's sums are dropped);
+//! otherwise the current merge is encoded on request.
 //! `/v1/jobs/{id}/image.exr` and `preview.png` show a job's first frame.
 use crate::error::AppError;
 use crate::state::{AppState, JobImage};
@@ -55,10 +56,10 @@ pub async fn frames_zip(State(st): State<AppState>, Path(id): Path<String>) -> R
         let job = s.job(&id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
         (0..job.frame_count()).map(|i| job.frame_number(i)).collect::<Vec<_>>()
     };
-    let finalized = finalize_if_ended(&st, &id).await?;
+    let ended = finalize_if_ended(&st, &id).await?;
     let mut files = Vec::with_capacity(numbers.len());
     for (index, n) in numbers.into_iter().enumerate() {
-        files.push((format!("frame_{n:04}.exr"), exr_bytes(&st, &id, index, finalized).await?));
+        files.push((format!("frame_{n:04}.exr"), exr_bytes(&st, &id, index, ended).await?));
     }
     let zip = tokio::task::spawn_blocking(move || zip_stored(files)).await.map_err(AppError::internal)?.map_err(AppError::internal)?;
     let disposition = format!("attachment; filename=\"{id}-frames.zip\"");
@@ -85,8 +86,8 @@ fn frame_index(st: &AppState, id: &str, n: u32) -> Result<usize, AppError> {
 }
 
 async fn frame_exr_bytes(st: &AppState, id: &str, index: usize) -> Result<Vec<u8>, AppError> {
-    let finalized = finalize_if_ended(st, id).await?;
-    exr_bytes(st, id, index, finalized).await
+    let ended = finalize_if_ended(st, id).await?;
+    exr_bytes(st, id, index, ended).await
 }
 
 /// True when the job has ended; its frame files are then written (now, if it ended a moment ago
@@ -100,57 +101,77 @@ async fn finalize_if_ended(st: &AppState, id: &str) -> Result<bool, AppError> {
     Ok(ended)
 }
 
-/// A frame's EXR: its final file when `finalized`, else the current merge encoded now (also
-/// for an ended job whose file could not be written, as long as its sums are kept).
-async fn exr_bytes(st: &AppState, id: &str, index: usize, finalized: bool) -> Result<Vec<u8>, AppError> {
-    if finalized && let Some(bytes) = image_file(st, id, index).await? {
-        return Ok(bytes);
-    }
-    let snapshot = snapshot(st, id, index)?;
-    tokio::task::spawn_blocking(move || snapshot.encode_exr()).await.map_err(AppError::internal)?.map_err(AppError::internal)
+/// Where a frame's pixels are: its written file, or the current merge.
+enum Pixels {
+    File(Vec<u8>),
+    Merge(JobImage),
 }
 
-/// The bytes of an ended job's frame file; None when it is not there and the job still has
-/// its sums to encode instead; an error when neither is left.
+/// The file when the job has `ended` or the frame's sums were dropped (it completed while the
+/// job goes on); else the current merge (also for an ended job whose file could not be
+/// written, as long as its sums are kept).
+async fn pixels(st: &AppState, id: &str, index: usize, ended: bool) -> Result<Pixels, AppError> {
+    if (ended || released(st, id, index))
+        && let Some(bytes) = image_file(st, id, index).await?
+    {
+        return Ok(Pixels::File(bytes));
+    }
+    match snapshot(st, id, index)? {
+        Some(merge) => Ok(Pixels::Merge(merge)),
+        // Released since the look above.
+        None => image_file(st, id, index)
+            .await?
+            .map(Pixels::File)
+            .ok_or_else(|| AppError::not_found(format!("frame {index} of job {id:?} has neither its sums nor its file"))),
+    }
+}
+
+async fn exr_bytes(st: &AppState, id: &str, index: usize, ended: bool) -> Result<Vec<u8>, AppError> {
+    match pixels(st, id, index, ended).await? {
+        Pixels::File(bytes) => Ok(bytes),
+        Pixels::Merge(merge) => {
+            tokio::task::spawn_blocking(move || merge.encode_exr()).await.map_err(AppError::internal)?.map_err(AppError::internal)
+        }
+    }
+}
+
+/// The bytes of a frame's file; None when it is not there and the frame still has its sums to
+/// encode instead; an error when neither is left.
 async fn image_file(st: &AppState, id: &str, index: usize) -> Result<Option<Vec<u8>>, AppError> {
     let Some(path) = st.frame_image_path(id, index) else { return Err(AppError::not_found(format!("no job {id:?}"))) };
     match tokio::fs::read(&path).await {
         Ok(bytes) => Ok(Some(bytes)),
-        Err(e) if released(st, id) => {
+        Err(e) if released(st, id, index) => {
             Err(AppError::not_found(format!("the image of job {id:?} was written to {} and cannot be read: {e}", path.display())))
         }
         Err(_) => Ok(None),
     }
 }
 
-fn released(st: &AppState, id: &str) -> bool {
-    st.scheduler.lock().expect("lock").job(id).is_some_and(|j| j.sums_released())
+/// Whether frame index `index`'s sums were dropped: its file is all there is.
+fn released(st: &AppState, id: &str, index: usize) -> bool {
+    st.scheduler.lock().expect("lock").job(id).is_some_and(|j| j.frame_released(index))
 }
 
-/// A frame's PNG preview: from its EXR file once the job has ended (the same pixels: the file
-/// holds the merge's f32 means), else from the current merge.
+/// A frame's PNG preview, from its file once written (the same pixels: the file holds the
+/// merge's f32 means), else from the current merge.
 async fn png(st: &AppState, id: &str, index: usize) -> Result<impl IntoResponse + use<>, AppError> {
-    let png = if finalize_if_ended(st, id).await?
-        && let Some(bytes) = image_file(st, id, index).await?
-    {
-        tokio::task::spawn_blocking(move || {
+    let ended = finalize_if_ended(st, id).await?;
+    let png = match pixels(st, id, index, ended).await? {
+        Pixels::File(bytes) => tokio::task::spawn_blocking(move || {
             crate::output::decode_exr(&bytes).map(|(l, _)| crate::output::encode_png_preview(l.width, l.height, &l.rgb))
         })
         .await
         .map_err(AppError::internal)?
-        .map_err(AppError::internal)?
-    } else {
-        let snapshot = snapshot(st, id, index)?;
-        tokio::task::spawn_blocking(move || snapshot.encode_png()).await.map_err(AppError::internal)?
+        .map_err(AppError::internal)?,
+        Pixels::Merge(merge) => tokio::task::spawn_blocking(move || merge.encode_png()).await.map_err(AppError::internal)?,
     };
     Ok(([(header::CONTENT_TYPE, "image/png"), (header::CACHE_CONTROL, "no-store")], png))
 }
 
-fn snapshot(st: &AppState, id: &str, index: usize) -> Result<JobImage, AppError> {
+/// The current merge of a frame, None when its sums were dropped (its file replaces them).
+fn snapshot(st: &AppState, id: &str, index: usize) -> Result<Option<JobImage>, AppError> {
     let s = st.scheduler.lock().expect("lock");
     let job = s.job(id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
-    if job.sums_released() {
-        return Err(AppError::not_found(format!("the sums of job {id:?} were dropped once its images were written")));
-    }
-    Ok(JobImage::of(job, index, st.now()))
+    Ok((!job.frame_released(index)).then(|| JobImage::of(job, index, st.now())))
 }

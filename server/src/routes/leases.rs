@@ -195,10 +195,15 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, Query(q)
     };
     st.0.settle().await;
     match outcome {
-        Ok(Accepted { job_id, merged, job_finished, .. }) => {
+        Ok(Accepted { job_id, merged, job_finished, frame_completed, .. }) => {
             if merged {
                 st.counters.units_merged.fetch_add(1, Ordering::Relaxed);
                 st.notify(&job_id);
+            }
+            if let Some(index) = frame_completed {
+                // In the background: the worker's answer does not wait for the encoding.
+                let (st2, id2) = (st.clone(), job_id.clone());
+                tokio::task::spawn_blocking(move || st2.write_frame(&id2, index));
             }
             if job_finished {
                 let st2 = st.clone();

@@ -24,6 +24,8 @@ mod tests_dashboard;
 #[cfg(test)]
 mod tests_frames;
 #[cfg(test)]
+mod tests_frame_release;
+#[cfg(test)]
 mod tests_images;
 #[cfg(test)]
 mod tests_jobs;

@@ -14,9 +14,16 @@ pub const MAX_PIXELS: u64 = 1 << 24;
 pub const MAX_SPP: u32 = 1 << 20;
 /// Cap on samples per pixel for jobs stopped only by noise or time.
 pub const OPEN_ENDED_SPP: u32 = 1 << 16;
-/// Pixels of all frames of a job together: the coordinator keeps every frame's sums until the
-/// job ends (4 GiB at this size); longer sequences are split into several jobs.
+/// Pixels of all frames of a time-limited job together: such a job refines all its frames
+/// together (batch-major, `scheduler::frames`), so it holds every frame's sums until it ends
+/// (4 GiB at this size); longer sequences are split into several jobs.
 pub const MAX_JOB_PIXELS: u64 = 1 << 26;
+/// Tiles of all frames of a job. Other jobs hold the sums of their frames in flight only (a
+/// complete frame's image is written and its sums dropped), but the coordinator keeps about 200
+/// bytes per tile for the job's life and writes a mark per tile into each checkpoint of its
+/// record: 2¹⁷ tiles are about 25 MiB and a 4 MiB record (257 frames of 1920×1080 in 64-pixel
+/// tiles, 2,048 of 512×512).
+pub const MAX_JOB_TILES: u64 = 1 << 17;
 pub const MAX_FPS: f64 = 1000.0;
 
 pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_ms: u64) -> Result<JobConfig, AppError> {
@@ -47,9 +54,10 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
     let estimator: Estimator = req.estimator.as_deref().unwrap_or("mis").parse().map_err(|e: String| AppError::field("estimator", e))?;
     let sampler: SamplerKind =
         req.sampler.as_deref().unwrap_or("sobol").parse().map_err(|e: tessera_worker::tracer::sampler::UnknownSamplerKind| AppError::field("sampler", e.to_string()))?;
-    let (frames, fps) = frames(req.frames.as_ref(), width as u64 * height as u64)?;
-    check_animation(req.animation.as_deref(), &frames, scene)?;
     let tile_size = in_range("tile_size", req.tile_size.unwrap_or(64), 8, 1024)?;
+    let tiles = width.div_ceil(tile_size) as u64 * height.div_ceil(tile_size) as u64;
+    let (frames, fps) = frames(req.frames.as_ref(), width as u64 * height as u64, tiles, time_limit_ms.is_some())?;
+    check_animation(req.animation.as_deref(), &frames, scene)?;
     let batch_spp = in_range("batch_spp", req.batch_spp.unwrap_or(16), 1, 4096)?;
     let max_depth = in_range("max_depth", req.max_depth.unwrap_or(1024), 1, 65536)?;
     let roulette_depth = in_range("roulette_depth", req.roulette_depth.unwrap_or(DEFAULT_ROULETTE_DEPTH), 0, 65536)?;
@@ -100,8 +108,8 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
     })
 }
 
-/// The frame numbers of a `frames` range, and its fps.
-fn frames(range: Option<&FrameRange>, pixels: u64) -> Result<(Vec<u32>, f64), AppError> {
+/// The frame numbers of a `frames` range, and its fps. `pixels` and `tiles` are per frame.
+fn frames(range: Option<&FrameRange>, pixels: u64, tiles: u64, time_limited: bool) -> Result<(Vec<u32>, f64), AppError> {
     let Some(r) = range else { return Ok((vec![0], DEFAULT_FPS)) };
     let step = r.step.unwrap_or(1);
     if r.start > r.end {
@@ -115,10 +123,19 @@ fn frames(range: Option<&FrameRange>, pixels: u64) -> Result<(Vec<u32>, f64), Ap
         return Err(AppError::field("frames", format!("frames.fps must be in (0, {MAX_FPS}] (got {fps})")));
     }
     let count = (r.end - r.start) as u64 / step as u64 + 1;
-    if count * pixels > MAX_JOB_PIXELS {
+    if time_limited && count * pixels > MAX_JOB_PIXELS {
         return Err(AppError::field(
             "frames",
-            format!("{count} frames of {pixels} pixels exceed {MAX_JOB_PIXELS} pixels per job: split the range into several jobs"),
+            format!(
+                "{count} frames of {pixels} pixels exceed {MAX_JOB_PIXELS} pixels per time-limited job (its frames are refined together, \
+                 all in memory): split the range into several jobs, or stop by spp or noise_target"
+            ),
+        ));
+    }
+    if count * tiles > MAX_JOB_TILES {
+        return Err(AppError::field(
+            "frames",
+            format!("{count} frames of {tiles} tiles exceed {MAX_JOB_TILES} tiles per job: split the range into several jobs, or use larger tiles"),
         ));
     }
     Ok(((r.start..=r.end).step_by(step as usize).collect(), fps))

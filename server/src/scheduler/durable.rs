@@ -178,7 +178,8 @@ impl Scheduler {
             JobState::Running => job.started_ms = Some(now),
             _ => (job.started_ms, job.finished_ms) = (Some(now), Some(now)),
         }
-        if job.state == JobState::Done && !job.tiles.iter().all(|t| t.complete()) {
+        let open_frame = job.advance_open_frame();
+        if job.state == JobState::Done && open_frame < job.frame_count() {
             // A checkpoint file went missing: render those tiles again rather than lie.
             job.state = JobState::Running;
             (job.started_ms, job.finished_ms) = (Some(now), None);

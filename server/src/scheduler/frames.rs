@@ -82,36 +82,65 @@ impl JobRun {
     }
 
     /// The unit to hand out next, as (tile, batch): breadth-first over batches within a frame,
-    /// frames chosen as the module doc says. `affinity` None: plain frame-major order.
+    /// frames chosen as the module doc says. `affinity` None: plain frame-major order. Frames
+    /// before `open_frame` are complete and not looked at, and frame-major order stops at the
+    /// first frame that can be the answer, so a lease costs the frames in flight, not the job.
     pub fn next_unit(&self, affinity: Option<&Affinity>) -> Option<(usize, u32)> {
         if self.state.is_final() {
             return None;
         }
-        let candidates: Vec<(usize, (u32, usize))> =
-            (0..self.frame_count()).filter_map(|f| self.next_in(self.frame_tiles(f)).map(|u| (f, u))).collect();
-        let time_limited = self.cfg.time_limit_ms.is_some();
+        if self.cfg.time_limit_ms.is_some() {
+            return self.next_unit_batch_major(affinity);
+        }
+        if let Some((b, t)) = affinity.and_then(|a| a.last).and_then(|last| self.next_in(self.frame_tiles(last))) {
+            return Some((t, b));
+        }
+        let busy = |f: usize| affinity.map_or(0, |a| a.busy.get(f).copied().unwrap_or(0));
+        let mut best: Option<(u32, (u32, usize))> = None;
+        for f in self.open_frame..self.frame_count() {
+            let Some(unit) = self.next_in(self.frame_tiles(f)) else { continue };
+            let load = busy(f);
+            if best.is_none_or(|(least, _)| load < least) {
+                best = Some((load, unit));
+            }
+            if load == 0 {
+                break; // no later frame has fewer workers, and ties go to the earliest
+            }
+        }
+        best.map(|(_, (b, t))| (t, b))
+    }
+
+    /// `next_unit` for a time-limited job: the lowest batch over all frames first.
+    fn next_unit_batch_major(&self, affinity: Option<&Affinity>) -> Option<(usize, u32)> {
+        let candidates: Vec<(usize, (u32, usize))> = (self.open_frame..self.frame_count())
+            .filter_map(|f| self.next_in(self.frame_tiles(f)).map(|u| (f, u)))
+            .collect();
         let lowest_batch = candidates.iter().map(|(_, (b, _))| *b).min()?;
         let Some(aff) = affinity else {
-            let pick = if time_limited { candidates.iter().min_by_key(|(f, (b, _))| (*b, *f)) } else { candidates.first() };
-            return pick.map(|(_, (b, t))| (*t, *b));
+            return candidates.iter().min_by_key(|(f, (b, _))| (*b, *f)).map(|(_, (b, t))| (*t, *b));
         };
         if let Some(&(_, (b, t))) = aff.last.and_then(|last| candidates.iter().find(|(f, _)| *f == last))
-            && (!time_limited || b <= lowest_batch)
+            && b <= lowest_batch
         {
             return Some((t, b));
         }
         let busy = |f: usize| aff.busy.get(f).copied().unwrap_or(0);
-        let pick = if time_limited {
-            candidates.iter().min_by_key(|(f, (b, _))| (*b, busy(*f), *f))
-        } else {
-            candidates.iter().min_by_key(|(f, _)| (busy(*f), *f))
-        };
-        pick.map(|(_, (b, t))| (*t, *b))
+        candidates.iter().min_by_key(|(f, (b, _))| (*b, busy(*f), *f)).map(|(_, (b, t))| (*t, *b))
     }
 
     /// Mean samples per pixel merged in frame index `index`.
     pub fn frame_samples_done(&self, index: usize) -> f64 {
         self.tiles[self.frame_tiles(index)].iter().map(|t| t.merged_samples).sum::<u64>() as f64 / self.pixel_count() as f64
+    }
+
+    /// Non-finite samples dropped in a frame's merged batches.
+    pub fn frame_dropped(&self, index: usize) -> u64 {
+        self.tiles[self.frame_tiles(index)].iter().map(|t| t.dropped).sum()
+    }
+
+    /// The largest sample weight in a frame's merged batches.
+    pub fn frame_max_weight(&self, index: usize) -> f64 {
+        self.tiles[self.frame_tiles(index)].iter().map(|t| t.max_weight).fold(0.0, f64::max)
     }
 
     /// Pixel-weighted relMSE of a frame's tiles that have merged something.

@@ -11,6 +11,7 @@ use super::tile::{NoiseStop, TileRun};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use tessera_proto::{JobRequest, JobState, PartialSums, RenderParams, TileRect};
+#[cfg(test)]
 use tessera_worker::tracer::PixelSums;
 
 /// Fewest samples per pixel merged before a tile may stop on its noise estimate: with fewer, the
@@ -88,6 +89,9 @@ pub struct JobRun {
     pub renderers: Vec<String>,
     /// Who rendered each buffered (tile, batch), credited when it merges in order.
     pending_by: HashMap<(usize, u32), Contributor>,
+    /// Frames before this index are complete (every tile has all it will get): the lease path
+    /// starts looking here, and the job is done when it reaches the frame count.
+    pub(super) open_frame: usize,
 }
 
 impl JobRun {
@@ -120,6 +124,7 @@ impl JobRun {
             contributions: BTreeMap::new(),
             renderers: Vec::new(),
             pending_by: HashMap::new(),
+            open_frame: 0,
         }
     }
 
@@ -172,7 +177,7 @@ impl JobRun {
         if merged > 0 {
             self.revision += 1;
         }
-        if self.tiles.iter().all(TileRun::complete) {
+        if merged > 0 && self.advance_open_frame() == self.frame_count() {
             self.finish(JobState::Done, now, None);
         }
         if merged > 0 && (self.history.due(self.elapsed_ms(now)) || self.state.is_final()) {
@@ -238,6 +243,33 @@ impl JobRun {
         self.forget_reported_noise();
     }
 
+    /// Moves `open_frame` past the frames now complete; returns it.
+    pub(super) fn advance_open_frame(&mut self) -> usize {
+        while self.open_frame < self.frame_count() && self.frame_complete(self.open_frame) {
+            self.open_frame += 1;
+        }
+        self.open_frame
+    }
+
+    /// Drops the sums of a complete frame once its image is written, keeping its counts and
+    /// noise for the job's status. False when the frame is not complete.
+    pub fn release_frame(&mut self, index: usize) -> bool {
+        if index >= self.frame_count() || !self.frame_complete(index) {
+            return false;
+        }
+        if !self.frame_released(index) {
+            let tiles = self.frame_tiles(index);
+            self.tiles[tiles].iter_mut().for_each(TileRun::release);
+            self.revision += 1;
+        }
+        true
+    }
+
+    /// Whether frame index `index`'s sums were dropped (its image is written).
+    pub fn frame_released(&self, index: usize) -> bool {
+        self.tiles.get(index * self.tiles_per_frame).is_some_and(|t| t.released)
+    }
+
     /// Drops an ended job's merged sums once its images are written: the job keeps its counts
     /// and noise for its status, and its images are served from their files. False when the job
     /// has not ended (a running job's sums are its image).
@@ -246,15 +278,15 @@ impl JobRun {
             return false;
         }
         if !self.sums_released() {
-            self.tiles.iter_mut().for_each(TileRun::release);
+            self.tiles.iter_mut().filter(|t| !t.released).for_each(TileRun::release);
             self.revision += 1;
         }
         true
     }
 
-    /// Whether the merged sums were dropped (`release_sums`).
+    /// Whether every frame's sums were dropped (`release_sums`, `release_frame`).
     pub fn sums_released(&self) -> bool {
-        self.tiles.first().is_some_and(|t| t.released)
+        (0..self.frame_count()).all(|i| self.frame_released(i))
     }
 
     /// Pixels of one frame.
@@ -296,7 +328,8 @@ impl JobRun {
         self.started_ms.is_some() && self.cfg.time_limit_ms.is_some_and(|l| self.elapsed_ms(now) >= l)
     }
 
-    /// One frame's merged sums (by frame index), for output.
+    /// One frame's merged sums (by frame index), for tests (output reads the tiles directly).
+    #[cfg(test)]
     pub fn frame_sums(&self, index: usize) -> Vec<PixelSums> {
         let w = self.cfg.params.width as usize;
         let mut frame = vec![PixelSums::default(); self.pixel_count() as usize];

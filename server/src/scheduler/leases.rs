@@ -194,14 +194,16 @@ impl Scheduler {
         }
         let job_id = job.cfg.id.clone();
         if !job.wants(l.tile, l.batch) {
-            return Ok(Accepted { job_id, worker: l.worker, merged: false, job_finished: false });
+            return Ok(Accepted { job_id, worker: l.worker, merged: false, job_finished: false, frame_completed: None });
         }
         let (name, renderer) = self.workers.get(&l.worker).map(|w| (w.name.clone(), w.renderer.clone())).unwrap_or_default();
         let by = Contributor { id: l.worker.clone(), name, renderer };
-        job.accept(l.tile, l.batch, sums, by, now);
+        let merged = job.accept(l.tile, l.batch, sums, by, now) > 0;
         let job_finished = job.state.is_final();
+        let frame = job.frame_index_of(l.tile);
+        let frame_completed = (merged && !job_finished && job.frame_complete(frame)).then_some(frame);
         self.revoke_unwanted(l.job_seq);
-        Ok(Accepted { job_id, worker: l.worker, merged: true, job_finished })
+        Ok(Accepted { job_id, worker: l.worker, merged: true, job_finished, frame_completed })
     }
 
     /// Expires overdue leases and ends jobs whose time limit ran out. Returns the ids of jobs

@@ -71,6 +71,10 @@ pub struct Accepted {
     /// False when the result was valid but no longer needed (its tile reached its noise target).
     pub merged: bool,
     pub job_finished: bool,
+    /// The frame index this merge completed while the job goes on (an animation's frame whose
+    /// tiles have all they will get): its image can be written and its sums dropped
+    /// (`Scheduler::release_frame`).
+    pub frame_completed: Option<usize>,
 }
 
 #[derive(Clone, Debug)]
@@ -236,6 +240,13 @@ impl Scheduler {
     pub fn release_sums(&mut self, id: &str) -> bool {
         let Some(&seq) = self.by_id.get(id) else { return false };
         self.jobs.get_mut(&seq).is_some_and(JobRun::release_sums)
+    }
+
+    /// Drops the sums of a complete frame of a running job once its image is written. False
+    /// when the job is unknown or the frame not complete.
+    pub fn release_frame(&mut self, id: &str, index: usize) -> bool {
+        let Some(&seq) = self.by_id.get(id) else { return false };
+        self.jobs.get_mut(&seq).is_some_and(|j| j.release_frame(index))
     }
 
     /// Jobs that ended by their time limit since the last call (whichever call noticed it).

@@ -4,7 +4,8 @@
 //! tessera.redb                     redb: table `jobs` (job id → JSON JobRecord), `meta` (boot count)
 //! jobs/<job id>/t<tile>-b<n>.sums  a tile's merged f64 sums after its batches 0..n (tile_file.rs)
 //! jobs/<job id>.exr                an ended job's image (`<job id>.f<frame>.exr` per frame of an
-//!                                  animation); once written, the job's sums and their files go
+//!                                  animation, written as each completes); once an image is
+//!                                  written its sums leave memory and their files go
 //! scenes/<sha256>                  uploaded scenes, content-addressed (crate::scenes)
 //! ```
 //!
