@@ -160,6 +160,10 @@ pub struct Job {
     /// Why the job failed, or how it ended.
     pub message: Option<String>,
     pub created_unix_ms: u64,
+    /// When the coordinator saw the job end (its images written), by the wall clock; what
+    /// `tessera serve --delete-ended-after` counts from. Absent while it runs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ended_unix_ms: Option<u64>,
     /// Workers that failed units of this job (leases expired, malformed results); those at the
     /// coordinator's limit (`--max-failures`) get no more of its units.
     #[serde(default)]

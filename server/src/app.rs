@@ -119,10 +119,17 @@ async fn checkpoint_forever(state: AppState) {
     }
 }
 
+/// Ended jobs past `--delete-ended-after` are looked for every this many ticks (10 s).
+const RETENTION_EVERY_TICKS: u64 = 50;
+
 async fn tick_forever(state: AppState) {
     let mut interval = tokio::time::interval(Duration::from_millis(200));
-    loop {
+    for n in 0u64.. {
         interval.tick().await;
+        if state.config.delete_ended_after_ms.is_some() && n % RETENTION_EVERY_TICKS == 0 {
+            let st = state.clone();
+            let _ = tokio::task::spawn_blocking(move || st.delete_expired(crate::state::unix_ms())).await;
+        }
         state.scheduler.lock().expect("lock").tick(state.now());
         state.0.settle().await;
         // Expired leases put units back: let long-polling workers look again.

@@ -8,6 +8,8 @@
 //! - [`client`]: a small client of the coordinator's API.
 //! - [`scheduler`]: the clock-free state machine of jobs, units, leases and workers.
 //! - [`store`], [`persist`]: durable job state (redb + checkpoint files) and resuming from it.
+//! - `ended`: what becomes of a job's pixels when its frames or the job end (images written,
+//!   sums dropped), and deleting jobs on request or by age.
 //! - [`scratch`]: temporary directories of commands that run their own coordinator, removed
 //!   on drop and before a benchmark exits early.
 //! - [`purge`]: how soon the allocator gives freed memory back, for processes that build scenes.
@@ -21,6 +23,7 @@ pub mod bench;
 pub mod bundled;
 pub mod client;
 pub mod dashboard;
+mod ended;
 pub mod error;
 pub mod image;
 pub mod local;

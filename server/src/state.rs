@@ -1,7 +1,7 @@
 //! Shared coordinator state: the scheduler behind a mutex, the scene store, finished images.
 //! A job's status as clients see it is built in `crate::status`.
 pub use crate::output::JobImage;
-use crate::scenes::{SceneStore, write_atomically};
+use crate::scenes::SceneStore;
 use crate::scheduler::Scheduler;
 use crate::store::Store;
 use anyhow::Context;
@@ -30,6 +30,9 @@ pub struct Config {
     pub frame_affinity: bool,
     /// Let workers of different renderer ids share a job (see `scheduler::renderers`).
     pub mix_renderers: bool,
+    /// Delete ended jobs (record, checkpoints, images) this long after they ended; None keeps
+    /// them until deleted by request.
+    pub delete_ended_after_ms: Option<u64>,
 }
 
 impl Config {
@@ -45,6 +48,7 @@ impl Config {
             max_failures: Scheduler::DEFAULT_MAX_FAILURES,
             frame_affinity: true,
             mix_renderers: false,
+            delete_ended_after_ms: None,
         }
     }
 }
@@ -66,7 +70,7 @@ pub struct Shared {
     /// Durable job state; None when `Config::checkpoint_ms` is None.
     pub store: Option<Store>,
     pub(crate) persist_lock: Mutex<()>,
-    finalize_lock: Mutex<()>,
+    pub(crate) finalize_lock: Mutex<()>,
     pub(crate) checkpoint_cost: Mutex<std::time::Duration>,
     /// Why the last checkpoint failed (cleared by the next that succeeds); shown by /healthz.
     pub last_checkpoint_error: Mutex<Option<String>>,
@@ -169,136 +173,22 @@ impl Shared {
         self.config.data_dir.join("jobs").join(name)
     }
 
-    /// Removes the image of every frame of a running job that the restored checkpoints leave
-    /// incomplete: it was written after merges that the crash lost, and is written again when
-    /// the frame completes again (the same pixels). Returns the complete frames whose release
-    /// the crash lost, to write and release again.
-    fn remove_stale_frames(&self) -> Vec<(String, usize)> {
-        let sched = self.scheduler.lock().expect("lock");
-        let mut complete = Vec::new();
-        for job in sched.jobs_newest_first().filter(|j| !j.state.is_final()) {
-            for i in (0..job.frame_count()).filter(|&i| !job.frame_released(i)) {
-                if job.frame_complete(i) {
-                    complete.push((job.cfg.id.clone(), i));
-                } else {
-                    let _ = std::fs::remove_file(self.image_path(&job.cfg.id, job.is_animation().then(|| job.frame_number(i))));
-                }
-            }
-        }
-        complete
-    }
-
     /// The file of frame index `index` of a job, or None when the job is unknown.
     pub fn frame_image_path(&self, job_id: &str, index: usize) -> Option<PathBuf> {
         let sched = self.scheduler.lock().expect("lock");
-        let job = sched.job(job_id)?;
-        Some(self.image_path(job_id, job.is_animation().then(|| job.frame_number(index))))
+        Some(self.frame_file(sched.job(job_id)?, index))
     }
 
-    /// Makes an ended job (done, canceled or failed) durable, writes each frame's EXR once (see
-    /// [`Self::image_path`]), then drops the job's merged sums: every later request serves those
-    /// files, so a job's EXR is the same bytes however often it is fetched (the `exr` crate writes
-    /// attributes in hash order, so two encodings can differ), and a coordinator that has run
-    /// many jobs holds none of their pixels. An image that cannot be written keeps the sums
-    /// (encoded on request, and retried on the next request or start).
-    pub fn finalize(&self, job_id: &str) {
-        let _one_at_a_time = self.finalize_lock.lock().expect("lock");
-        let frames: Vec<(usize, Option<u32>)> = {
-            let sched = self.scheduler.lock().expect("lock");
-            let Some(job) = sched.job(job_id) else { return };
-            if !job.state.is_final() || job.sums_released() {
-                return;
-            }
-            (0..job.frame_count()).map(|i| (i, job.is_animation().then(|| job.frame_number(i)))).collect()
-        };
-        let missing: Vec<_> = {
-            let sched = self.scheduler.lock().expect("lock");
-            let Some(job) = sched.job(job_id) else { return };
-            // A frame released while the job ran has its file already (unless it was removed).
-            frames.into_iter().filter(|(i, n)| !job.frame_released(*i) && !self.image_path(job_id, *n).exists()).collect()
-        };
-        if !missing.is_empty()
-            && let Err(e) = self.checkpoint()
-        {
-            tracing::error!(job = job_id, "checkpointing the ended job failed (retried): {e:#}");
-        }
-        for (index, number) in missing {
-            let snapshot = {
-                let sched = self.scheduler.lock().expect("lock");
-                let Some(job) = sched.job(job_id) else { return };
-                JobImage::of(job, index, self.now())
-            };
-            let bytes = match snapshot.encode_exr() {
-                Ok(b) => b,
-                Err(e) => {
-                    tracing::error!(job = job_id, "encoding the final image failed: {e:#}");
-                    return;
-                }
-            };
-            if let Err(e) = write_atomically(&self.image_path(job_id, number), &bytes) {
-                tracing::error!(job = job_id, "writing the final image failed (it is encoded on request instead): {e}");
-                return;
-            }
-        }
-        self.scheduler.lock().expect("lock").release_sums(job_id);
-        crate::purge::return_freed_pages();
-        tracing::info!(job = job_id, "job ended: images written, sums released");
+    /// The file of frame index `index` of `job` (see [`Self::image_path`]).
+    pub(crate) fn frame_file(&self, job: &crate::scheduler::JobRun, index: usize) -> PathBuf {
+        self.image_path(&job.cfg.id, job.is_animation().then(|| job.frame_number(index)))
     }
 
-    /// Writes the EXR of a frame that completed while its job goes on (an animation's), then
-    /// drops the frame's sums, so a job's memory follows the frames in flight rather than its
-    /// length. The file is the frame's final image: later requests serve it.
-    pub fn write_frame(&self, job_id: &str, index: usize) {
-        let _one_at_a_time = self.finalize_lock.lock().expect("lock");
-        let (snapshot, path) = {
-            let sched = self.scheduler.lock().expect("lock");
-            let Some(job) = sched.job(job_id) else { return };
-            if job.state.is_final() || job.frame_released(index) || !job.frame_complete(index) {
-                return; // an ended job's frames are `finalize`'s
-            }
-            (JobImage::of(job, index, self.now()), self.image_path(job_id, job.is_animation().then(|| job.frame_number(index))))
-        };
-        let written = snapshot.encode_exr().and_then(|bytes| write_atomically(&path, &bytes).map_err(anyhow::Error::from));
-        match written {
-            Ok(()) => {
-                self.scheduler.lock().expect("lock").release_frame(job_id, index);
-                crate::purge::return_freed_pages();
-                tracing::debug!(job = job_id, frame = index, "frame complete: image written, sums released");
-            }
-            Err(e) => tracing::error!(job = job_id, frame = index, "writing a complete frame's image failed (it is kept in memory and written when the job ends): {e:#}"),
-        }
-    }
-
-    /// Deletes a job for good: it is canceled if it still runs, then its record, checkpoints
-    /// and images go. False for an unknown job. The record goes first, so a crash midway leaves
-    /// at worst files that no job names, never a job whose files are gone.
-    pub fn purge(&self, job_id: &str) -> anyhow::Result<bool> {
-        // Neither a finalize (which writes images) nor a checkpoint (which writes the record
-        // back) may run in between.
-        let _no_finalize = self.finalize_lock.lock().expect("lock");
-        let _no_checkpoint = self.persist_lock.lock().expect("lock");
-        let images: Vec<PathBuf> = {
-            let sched = self.scheduler.lock().expect("lock");
-            let Some(job) = sched.job(job_id) else { return Ok(false) };
-            (0..job.frame_count()).map(|i| self.image_path(job_id, job.is_animation().then(|| job.frame_number(i)))).collect()
-        };
-        if let Some(store) = &self.store {
-            store.delete_job(job_id)?;
-        }
-        {
-            let mut sched = self.scheduler.lock().expect("lock");
-            sched.cancel(job_id, self.now());
-            sched.forget(job_id);
-        }
-        for path in images {
-            match std::fs::remove_file(&path) {
-                Err(e) if e.kind() != std::io::ErrorKind::NotFound => tracing::warn!(job = job_id, "removing {}: {e}", path.display()),
-                _ => {}
-            }
-        }
-        tracing::info!(job = job_id, "job deleted");
-        Ok(true)
-    }
 }
 
 pub use crate::status::job_status;
+
+/// Milliseconds since the Unix epoch, by the wall clock.
+pub fn unix_ms() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default().as_millis() as u64
+}

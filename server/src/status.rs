@@ -38,6 +38,7 @@ pub fn job_status(job: &JobRun, now: u64, workers: u32, max_failures: u32) -> Jo
         max_sample_weight: job.max_weight(),
         message: job.message.clone(),
         created_unix_ms: job.cfg.created_unix_ms,
+        ended_unix_ms: job.ended_unix_ms,
         worker_failures: job
             .failures
             .iter()

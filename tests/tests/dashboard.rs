@@ -152,7 +152,13 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
     let idle = b.until("the other renderer's idle reason", 20, &script).await;
     let expected = format!("idle: jobs {} are kept on renderer {} while a worker of it is live", long.id, tessera_worker::renderer_id());
     assert_eq!(idle, expected);
-    api.cancel(&long.id).await.unwrap();
+    // The running job deleted from its page (the confirmation answered yes): gone from the list
+    // and from the coordinator.
+    b.js(&format!(r##"location.hash = "#/job/{}"; window.confirm = () => true; return true;"##, long.id)).await;
+    b.until("the job to delete", 20, &format!(r#"return document.getElementById("j-id").textContent === "{}";"#, long.id)).await;
+    b.click("#j-delete").await;
+    b.until("the list without it", 20, &format!(r##"return location.hash === "#/jobs" && document.querySelector('tr[data-job="{job_id}"]') && !document.querySelector('tr[data-job="{}"]');"##, long.id)).await;
+    assert!(api.job(&long.id).await.is_err(), "deleted on the coordinator");
 }
 
 /// Snapshots the job page every 50 ms until it shows the job done at 100 % with its final

@@ -31,6 +31,11 @@ pub struct ServeArgs {
     /// a job stays on the renderer it started with while a worker of it is live.
     #[arg(long, env = "TESSERA_MIX_RENDERERS")]
     pub mix_renderers: bool,
+    /// Delete ended jobs (done, canceled or failed: their record, checkpoints and images) this
+    /// many hours after they ended, checked every 10 s. Unset: keep them until `tessera job
+    /// delete`.
+    #[arg(long, env = "TESSERA_DELETE_ENDED_AFTER", value_name = "HOURS")]
+    pub delete_ended_after: Option<f64>,
     /// Largest accepted scene upload, in MiB.
     #[arg(long, default_value_t = 256)]
     pub max_scene_mib: usize,
@@ -52,11 +57,13 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
     anyhow::ensure!(a.lease_timeout > 0.0 && a.lease_timeout.is_finite(), "--lease-timeout must be > 0");
     anyhow::ensure!(a.checkpoint_interval >= 0.0 && a.checkpoint_interval.is_finite(), "--checkpoint-interval must be >= 0");
     anyhow::ensure!(a.max_failures >= 1, "--max-failures must be at least 1");
+    anyhow::ensure!(a.delete_ended_after.is_none_or(|h| h >= 0.0 && h.is_finite()), "--delete-ended-after must be a number of hours >= 0");
     let mut config = Config::new(a.data.clone());
     config.checkpoint_ms = (a.checkpoint_interval > 0.0).then_some((a.checkpoint_interval * 1000.0) as u64);
     config.max_failures = a.max_failures;
     config.frame_affinity = a.frame_affinity;
     config.mix_renderers = a.mix_renderers;
+    config.delete_ended_after_ms = a.delete_ended_after.map(|h| (h * 3_600_000.0) as u64);
     config.lease_timeout_ms = (a.lease_timeout * 1000.0) as u64;
     config.max_scene_bytes = a.max_scene_mib << 20;
     config.max_triangles = a.max_triangles;

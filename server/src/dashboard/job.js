@@ -43,6 +43,7 @@ class JobView {
     delete img.dataset.samples;
     $("j-cancel").onclick = () => this.act(() => this.cancel());
     $("j-pause").onclick = () => this.act(() => this.togglePause());
+    $("j-delete").onclick = () => this.act(() => this.delete());
     $("j-exr").onclick = () => this.act(() => download(`${this.path}/image.exr`, `${this.id}.exr`));
     $("j-png").onclick = () => this.act(() => download(`${this.path}/preview.png`, `${this.id}.png`));
     $("j-target").oninput = () => this.job && this.chart(this.job);
@@ -68,6 +69,13 @@ class JobView {
   async cancel() {
     const job = await (await call(this.path, { method: "DELETE" })).json();
     this.update(job);
+  }
+
+  /** Deletes the job for good (its images and checkpoints too), after asking; back to the list. */
+  async delete() {
+    if (!confirm(`Delete job ${this.id} and its images for good?`)) return;
+    await call(`${this.path}?purge=true`, { method: "DELETE" });
+    location.hash = "#/jobs";
   }
 
   /** Pauses a queued or running job, resumes a paused one. */
@@ -131,6 +139,7 @@ class JobView {
       ["Scene load + build", fmt.duration(frames.reduce((s, f) => s + f.prepare_ms, 0) / 1000)],
       ["Worker peak memory", fmt.bytes(Math.max(...frames.map((f) => f.worker_peak_rss_bytes ?? -Infinity)))],
       ["Submitted", new Date(job.created_unix_ms).toLocaleString()],
+      ["Ended", job.ended_unix_ms ? new Date(job.ended_unix_ms).toLocaleString() : "—"],
     ];
     $("j-facts").replaceChildren(...rows.flatMap(([k, v]) => [fmt.el("dt", { text: k }), fmt.el("dd", { text: v })]));
   }

@@ -14,7 +14,7 @@ use tessera_proto::{Job, JobList, JobRequest, Problem};
 pub async fn create(State(st): State<AppState>, Json(req): Json<JobRequest>) -> Result<impl IntoResponse, AppError> {
     let scene = st.scenes.resolve(&req.scene).ok_or_else(|| AppError::field("scene", format!("no scene {:?} (upload it to /v1/scenes or use a bundled name)", req.scene)))?;
     let id = st.new_job_id();
-    let created = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default().as_millis() as u64;
+    let created = crate::state::unix_ms();
     let cfg = job_config(id.clone(), req, &scene, created)?;
     let job = {
         let mut s = st.scheduler.lock().expect("lock");

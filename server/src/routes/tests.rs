@@ -44,7 +44,14 @@ impl Api {
     /// same data directory.
     pub fn crash_and_reopen(mut self, tweak: impl FnOnce(&mut Config)) -> Api {
         let dir = std::mem::take(&mut self.dir);
+        let state = std::sync::Arc::downgrade(&self.state.0);
         drop(self);
+        // A background task of the old coordinator (a complete frame's image being written) may
+        // still hold it, and with it the store's lock, which a crashed process would release.
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+        while state.strong_count() > 0 && std::time::Instant::now() < deadline {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
         Api::open(dir, tweak)
     }
 

@@ -129,3 +129,21 @@ async fn a_deleted_job_is_gone_with_its_files_even_after_a_restart() {
     assert_eq!(api.get("/v1/jobs").await.json()["jobs"].as_array().unwrap().len(), 0, "no record left to restore");
     assert_eq!(std::fs::read_dir(api.dir().join("jobs")).unwrap().count(), 0, "no file left behind");
 }
+
+#[tokio::test]
+async fn ended_jobs_are_deleted_once_older_than_the_retention_even_across_a_restart() {
+    const HOUR_MS: u64 = 3_600_000;
+    let api = Api::with_config("ended-retention", |c| c.delete_ended_after_ms = Some(HOUR_MS));
+    let ended = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
+    finish(&api, &ended).await;
+    let running = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
+    let now = crate::state::unix_ms();
+    assert_eq!(api.state.delete_expired(now), 0, "ended just now");
+    api.state.checkpoint().unwrap();
+    let api = api.crash_and_reopen(|c| c.delete_ended_after_ms = Some(HOUR_MS));
+    assert_eq!(api.state.delete_expired(now + HOUR_MS - 60_000), 0, "the end time survived the restart");
+    assert_eq!(api.state.delete_expired(now + HOUR_MS + 60_000), 1);
+    api.get(&format!("/v1/jobs/{ended}")).await.problem(StatusCode::NOT_FOUND);
+    assert!(!api.dir().join("jobs").join(format!("{ended}.exr")).exists());
+    assert_eq!(api.job(&running).await["state"], "queued", "a job that has not ended stays");
+}

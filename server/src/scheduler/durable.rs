@@ -28,6 +28,9 @@ pub struct JobRecord {
     /// The job's renderers (`JobRun::renderers`), so a restarted coordinator keeps it on them.
     #[serde(default)]
     pub renderers: Vec<String>,
+    /// When the job ended, by the wall clock (`JobRun::ended_unix_ms`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ended_unix_ms: Option<u64>,
 }
 
 /// How many batches a tile's checkpoint file holds (0: no file), and its noise stop. A released
@@ -95,6 +98,7 @@ impl JobRun {
             tiles: self.tiles.iter().map(|t| TileMark { upto: t.merged_upto, stop_at: t.stop_at, released: t.summary() }).collect(),
             contributions: self.contributions.clone(),
             renderers: self.renderers.clone(),
+            ended_unix_ms: self.ended_unix_ms,
         }
     }
 
@@ -173,6 +177,7 @@ impl Scheduler {
         job.elapsed_before_ms = rec.elapsed_ms;
         job.contributions = rec.contributions;
         job.renderers = rec.renderers;
+        job.ended_unix_ms = rec.ended_unix_ms;
         match job.state {
             JobState::Queued | JobState::Paused => {}
             JobState::Running => job.started_ms = Some(now),

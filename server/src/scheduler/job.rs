@@ -87,6 +87,9 @@ pub struct JobRun {
     /// Renderer ids of the workers whose samples are merged, in order of their first merge:
     /// one, unless the job outlived every live worker of its renderer (`renderers.rs`).
     pub renderers: Vec<String>,
+    /// Wall-clock time (ms since the Unix epoch) the coordinator saw the job ended, for
+    /// `--delete-ended-after`; stamped by `Shared::finalize`.
+    pub ended_unix_ms: Option<u64>,
     /// Who rendered each buffered (tile, batch), credited when it merges in order.
     pending_by: HashMap<(usize, u32), Contributor>,
     /// Frames before this index are complete (every tile has all it will get): the lease path
@@ -123,6 +126,7 @@ impl JobRun {
             persisted_revision: 0,
             contributions: BTreeMap::new(),
             renderers: Vec::new(),
+            ended_unix_ms: None,
             pending_by: HashMap::new(),
             open_frame: 0,
         }

@@ -242,6 +242,24 @@ impl Scheduler {
         self.jobs.get_mut(&seq).is_some_and(JobRun::release_sums)
     }
 
+    /// Stamps the wall-clock time an ended job was seen ended (once; later calls keep the first).
+    pub fn note_ended_at(&mut self, id: &str, unix_ms: u64) {
+        let Some(&seq) = self.by_id.get(id) else { return };
+        let job = self.jobs.get_mut(&seq).expect("indexed");
+        if job.state.is_final() && job.ended_unix_ms.is_none() {
+            job.ended_unix_ms = Some(unix_ms);
+            job.revision += 1;
+        }
+    }
+
+    /// Ended jobs stamped at or before `unix_ms`, oldest first (for `--delete-ended-after`).
+    pub fn ended_by(&self, unix_ms: u64) -> Vec<String> {
+        let mut old: Vec<(u64, &str)> =
+            self.jobs.values().filter_map(|j| j.ended_unix_ms.filter(|&t| t <= unix_ms).map(|t| (t, j.cfg.id.as_str()))).collect();
+        old.sort();
+        old.into_iter().map(|(_, id)| id.to_string()).collect()
+    }
+
     /// Drops the sums of a complete frame of a running job once its image is written. False
     /// when the job is unknown or the frame not complete.
     pub fn release_frame(&mut self, id: &str, index: usize) -> bool {

@@ -233,3 +233,25 @@ fn released_sums_leave_the_figures_and_their_files_go_once_the_record_says_so() 
     assert!(job.sums_released());
     assert_eq!(figures(&back, "j"), before);
 }
+
+#[test]
+fn only_ended_jobs_get_an_end_time_and_it_is_kept_by_checkpoints() {
+    let mut s = Scheduler::new(TIMEOUT);
+    let w = s.register_worker("a", 1, 0);
+    s.submit(config("done", 4, 0));
+    s.submit(config("later", 4, 0));
+    s.note_ended_at("later", 5);
+    assert!(s.job("later").unwrap().ended_unix_ms.is_none(), "a queued job has not ended");
+    while let Some(g) = s.lease(&w, 0).unwrap().filter(|g| g.job_id == "done") {
+        s.complete(&g.lease_id, sums(&g, 0.5), 1).unwrap();
+    }
+    s.note_ended_at("done", 7);
+    s.note_ended_at("done", 9);
+    s.cancel("later", 2);
+    s.note_ended_at("later", 8);
+    assert_eq!(s.ended_by(6), Vec::<String>::new());
+    assert_eq!(s.ended_by(8), ["done", "later"], "oldest first; the first stamp kept");
+    let mut disk = Disk::default();
+    disk.save(&mut s, 3);
+    assert_eq!(disk.boot(1, None).ended_by(7), ["done"]);
+}

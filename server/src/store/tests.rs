@@ -36,6 +36,7 @@ fn record(upto: u32) -> JobRecord {
         tiles: vec![TileMark { upto, stop_at: None, released: None }],
         contributions: Default::default(),
         renderers: vec!["tessera 0.1.0 src:aaaaaaaaaaaa libm:00000000".into()],
+        ended_unix_ms: None,
     }
 }
 
