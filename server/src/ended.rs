@@ -56,15 +56,8 @@ impl Shared {
                 let Some(job) = sched.job(job_id) else { return };
                 JobImage::of(job, index, self.now())
             };
-            let bytes = match snapshot.encode_exr() {
-                Ok(b) => b,
-                Err(e) => {
-                    tracing::error!(job = job_id, "encoding the final image failed: {e:#}");
-                    return;
-                }
-            };
-            if let Err(e) = write_atomically(&path, &bytes) {
-                tracing::error!(job = job_id, "writing the final image failed (it is encoded on request instead): {e}");
+            if let Err(e) = write_image(&snapshot, &path) {
+                tracing::error!(job = job_id, "writing the final image failed (it is encoded on request instead): {e:#}");
                 return;
             }
         }
@@ -86,8 +79,7 @@ impl Shared {
             }
             (JobImage::of(job, index, self.now()), self.frame_file(job, index))
         };
-        let written = snapshot.encode_exr().and_then(|bytes| write_atomically(&path, &bytes).map_err(anyhow::Error::from));
-        match written {
+        match write_image(&snapshot, &path) {
             Ok(()) => {
                 self.scheduler.lock().expect("lock").release_frame(job_id, index);
                 crate::purge::return_freed_pages();
@@ -147,4 +139,10 @@ impl Shared {
         tracing::info!(job = job_id, "job deleted");
         Ok(true)
     }
+}
+
+/// Encodes a frame's EXR and writes it atomically (a reader sees the old file or the whole new one).
+fn write_image(image: &JobImage, path: &std::path::Path) -> anyhow::Result<()> {
+    let bytes = image.encode_exr()?;
+    write_atomically(path, &bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
 }

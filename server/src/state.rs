@@ -144,8 +144,7 @@ impl Shared {
 
     pub fn new_job_id(&self) -> String {
         let n = self.next_job.fetch_add(1, Ordering::Relaxed) + 1;
-        let t = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default().as_millis();
-        format!("j{t:x}-{n}")
+        format!("j{:x}-{n}", unix_ms())
     }
 
     pub fn notify(&self, job_id: &str) {

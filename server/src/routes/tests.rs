@@ -204,9 +204,17 @@ pub(super) async fn register(api: &Api) -> String {
 }
 
 pub(super) async fn lease(api: &Api, worker: &str) -> Lease {
+    next_lease(api, worker).await.expect("a lease, not 204 no work")
+}
+
+/// The worker's next lease, None when the coordinator has no work (204).
+pub(super) async fn next_lease(api: &Api, worker: &str) -> Option<Lease> {
     let r = api.post_json("/v1/leases", &json!({"worker_id": worker})).await;
+    if r.status == StatusCode::NO_CONTENT {
+        return None;
+    }
     r.expect(StatusCode::OK);
-    serde_json::from_slice(&r.body).expect("a lease")
+    Some(serde_json::from_slice(&r.body).expect("a lease"))
 }
 
 /// Sums for the lease where every sample has radiance `v` in every channel.

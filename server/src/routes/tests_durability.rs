@@ -20,12 +20,7 @@ async fn complete(api: &Api, l: &Lease) -> StatusCode {
 /// Renders the job to the end with fake results; returns the final image's bytes.
 async fn finish(api: &Api, job: &str) -> Vec<u8> {
     let w = register(api).await;
-    loop {
-        let r = api.post_json("/v1/leases", &json!({"worker_id": w})).await;
-        if r.status == StatusCode::NO_CONTENT {
-            break;
-        }
-        let l: Lease = serde_json::from_slice(&r.body).unwrap();
+    while let Some(l) = next_lease(api, &w).await {
         assert_eq!(complete(api, &l).await, StatusCode::NO_CONTENT);
     }
     assert_eq!(api.job(job).await["state"], "done");

@@ -1,21 +1,15 @@
 //! Ended jobs (done, canceled, or stopped by their time limit): their images are written once,
 //! their merged sums are dropped, and a restart neither reads the sums back nor changes what the
 //! job reports or serves.
-use super::tests::{Api, job_body, lease, put_result, register, sums_for, tiled_job};
+use super::tests::{Api, job_body, lease, next_lease, put_result, register, sums_for, tiled_job};
 use axum::http::StatusCode;
 use serde_json::{Value, json};
-use tessera_proto::Lease;
 
 /// Renders the job to the end with fake results of varying radiance (so its noise is not 0).
 async fn finish(api: &Api, job: &str) {
     let w = register(api).await;
     let mut n = 0;
-    loop {
-        let r = api.post_json("/v1/leases", &json!({"worker_id": w})).await;
-        if r.status == StatusCode::NO_CONTENT {
-            break;
-        }
-        let l: Lease = serde_json::from_slice(&r.body).unwrap();
+    while let Some(l) = next_lease(api, &w).await {
         n += 1;
         put_result(api, &l.lease_id, sums_for(&l, 0.25 * n as f64).encode()).await.expect(StatusCode::NO_CONTENT);
     }

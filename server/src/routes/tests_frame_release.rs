@@ -78,10 +78,7 @@ async fn a_complete_frame_is_written_and_dropped_while_the_job_goes_on_and_after
     assert_eq!(api.get(&format!("/v1/jobs/{id}/frames/4/image.exr")).await.body, served.body);
     let w = register(&api).await;
     let mut left = Vec::new();
-    while let Some(l) = {
-        let r = api.post_json("/v1/leases", &json!({"worker_id": w})).await;
-        (r.status == StatusCode::OK).then(|| serde_json::from_slice::<Lease>(&r.body).unwrap())
-    } {
+    while let Some(l) = next_lease(&api, &w).await {
         left.push((l.frame, l.tile.x0));
         merge(&api, &l).await;
     }

@@ -128,10 +128,7 @@ async fn a_frame_job_survives_a_coordinator_restart_frame_by_frame() {
     assert_eq!(restored, [u64::from(done_frame)], "the merged frame came back, the others did not");
     let w = register(&api).await;
     let mut left = Vec::new();
-    while let Some(l) = {
-        let r = api.post_json("/v1/leases", &json!({"worker_id": w})).await;
-        (r.status == StatusCode::OK).then(|| serde_json::from_slice::<tessera_proto::Lease>(&r.body).unwrap())
-    } {
+    while let Some(l) = next_lease(&api, &w).await {
         left.push(l.frame);
         put_result(&api, &l.lease_id, sums_for(&l, 0.75).encode()).await.expect(StatusCode::NO_CONTENT);
     }

@@ -1,5 +1,5 @@
 //! The worker protocol over HTTP: register, lease, heartbeat, result, release.
-use super::tests::{Api, lease, put_result, register, samples_done, sums_for, tiled_job};
+use super::tests::{Api, lease, next_lease, put_result, register, samples_done, sums_for, tiled_job};
 use axum::http::{Method, StatusCode};
 use serde_json::{Value, json};
 
@@ -76,13 +76,8 @@ async fn leases_cover_the_jobs_tiles_and_batches_breadth_first() {
     assert_eq!(status["workers"], 1);
 
     let mut all = vec![first];
-    loop {
-        let r = api.post_json("/v1/leases", &json!({"worker_id": w})).await;
-        if r.status == StatusCode::NO_CONTENT {
-            break;
-        }
-        r.expect(StatusCode::OK);
-        all.push(serde_json::from_slice(&r.body).unwrap());
+    while let Some(l) = next_lease(&api, &w).await {
+        all.push(l);
     }
     assert_eq!(all.len(), 12, "6 tiles × 2 batches");
     assert!(all[..6].iter().all(|l| l.samples == [0, 3]) && all[6..].iter().all(|l| l.samples == [3, 5]), "breadth first, last batch clipped to spp");

@@ -21,8 +21,9 @@ pub const MAX_JOB_PIXELS: u64 = 1 << 26;
 /// Tiles of all frames of a job. Other jobs hold the sums of their frames in flight only (a
 /// complete frame's image is written and its sums dropped), but the coordinator keeps about 200
 /// bytes per tile for the job's life and writes a mark per tile into each checkpoint of its
-/// record: 2¹⁷ tiles are about 25 MiB and a 4 MiB record (257 frames of 1920×1080 in 64-pixel
-/// tiles, 2,048 of 512×512).
+/// record: 2¹⁷ tiles are about 25 MiB and a record of 3 MiB, up to 12 MiB once their frames are
+/// released and each mark carries its figures (257 frames of 1920×1080 in 64-pixel tiles, 2,048
+/// of 512×512).
 pub const MAX_JOB_TILES: u64 = 1 << 17;
 pub const MAX_FPS: f64 = 1000.0;
 

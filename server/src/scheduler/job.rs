@@ -261,12 +261,20 @@ impl JobRun {
         if index >= self.frame_count() || !self.frame_complete(index) {
             return false;
         }
-        if !self.frame_released(index) {
-            let tiles = self.frame_tiles(index);
-            self.tiles[tiles].iter_mut().for_each(TileRun::release);
+        self.release_tiles(self.frame_tiles(index));
+        true
+    }
+
+    /// Releases the tiles in `tiles` that still hold sums; a change for the next checkpoint.
+    fn release_tiles(&mut self, tiles: std::ops::Range<usize>) {
+        let mut released = false;
+        for t in self.tiles[tiles].iter_mut().filter(|t| !t.released) {
+            t.release();
+            released = true;
+        }
+        if released {
             self.revision += 1;
         }
-        true
     }
 
     /// Whether frame index `index`'s sums were dropped (its image is written).
@@ -281,10 +289,7 @@ impl JobRun {
         if !self.state.is_final() {
             return false;
         }
-        if !self.sums_released() {
-            self.tiles.iter_mut().filter(|t| !t.released).for_each(TileRun::release);
-            self.revision += 1;
-        }
+        self.release_tiles(0..self.tiles.len());
         true
     }
 

@@ -198,10 +198,10 @@ impl Scheduler {
         }
         let (name, renderer) = self.workers.get(&l.worker).map(|w| (w.name.clone(), w.renderer.clone())).unwrap_or_default();
         let by = Contributor { id: l.worker.clone(), name, renderer };
-        let merged = job.accept(l.tile, l.batch, sums, by, now) > 0;
+        let merged_batches = job.accept(l.tile, l.batch, sums, by, now);
         let job_finished = job.state.is_final();
         let frame = job.frame_index_of(l.tile);
-        let frame_completed = (merged && !job_finished && job.frame_complete(frame)).then_some(frame);
+        let frame_completed = (merged_batches > 0 && !job_finished && job.frame_complete(frame)).then_some(frame);
         self.revoke_unwanted(l.job_seq);
         Ok(Accepted { job_id, worker: l.worker, merged: true, job_finished, frame_completed })
     }

@@ -185,6 +185,10 @@ impl Scheduler {
         self.by_id.get(id).and_then(|s| self.jobs.get(s))
     }
 
+    fn job_mut(&mut self, id: &str) -> Option<&mut JobRun> {
+        self.by_id.get(id).and_then(|s| self.jobs.get_mut(s))
+    }
+
     /// Jobs, newest first.
     pub fn jobs_newest_first(&self) -> impl Iterator<Item = &JobRun> {
         self.jobs.values().rev()
@@ -222,7 +226,7 @@ impl Scheduler {
     /// Pauses (`pause`) or resumes a job; None for an unknown job, Err(state) for one that has
     /// ended. The job's state after it otherwise.
     pub fn set_paused(&mut self, id: &str, pause: bool, now: u64) -> Option<Result<JobState, JobState>> {
-        let job = self.jobs.get_mut(self.by_id.get(id)?)?;
+        let job = self.job_mut(id)?;
         let done = if pause { job.pause(now) } else { job.resume() };
         Some(done.map(|()| job.state))
     }
@@ -238,14 +242,12 @@ impl Scheduler {
     /// Drops an ended job's merged sums (its images are written; see `JobRun::release_sums`).
     /// False for an unknown job or one still running.
     pub fn release_sums(&mut self, id: &str) -> bool {
-        let Some(&seq) = self.by_id.get(id) else { return false };
-        self.jobs.get_mut(&seq).is_some_and(JobRun::release_sums)
+        self.job_mut(id).is_some_and(JobRun::release_sums)
     }
 
     /// Stamps the wall-clock time an ended job was seen ended (once; later calls keep the first).
     pub fn note_ended_at(&mut self, id: &str, unix_ms: u64) {
-        let Some(&seq) = self.by_id.get(id) else { return };
-        let job = self.jobs.get_mut(&seq).expect("indexed");
+        let Some(job) = self.job_mut(id) else { return };
         if job.state.is_final() && job.ended_unix_ms.is_none() {
             job.ended_unix_ms = Some(unix_ms);
             job.revision += 1;
@@ -263,8 +265,7 @@ impl Scheduler {
     /// Drops the sums of a complete frame of a running job once its image is written. False
     /// when the job is unknown or the frame not complete.
     pub fn release_frame(&mut self, id: &str, index: usize) -> bool {
-        let Some(&seq) = self.by_id.get(id) else { return false };
-        self.jobs.get_mut(&seq).is_some_and(|j| j.release_frame(index))
+        self.job_mut(id).is_some_and(|j| j.release_frame(index))
     }
 
     /// Jobs that ended by their time limit since the last call (whichever call noticed it).

@@ -1,7 +1,7 @@
 //! One tile of a job: which batches are issued, buffered and merged, and its f64 sums.
+use super::durable::ReleasedTile;
 use crate::image::rel_mse;
 use std::cell::Cell;
-use super::durable::ReleasedTile;
 use std::collections::{BTreeMap, BTreeSet};
 use tessera_proto::{PartialSums, TileRect};
 use tessera_worker::tracer::PixelSums;
@@ -55,28 +55,28 @@ impl TileRun {
     /// Puts back a checkpoint: `sums` hold batches 0..upto; everything after is issued afresh.
     pub fn restore(&mut self, upto: u32, stop_at: Option<u32>, sums: Vec<PixelSums>, dropped: u64, max_weight: f64, samples_per_pixel: u64) {
         debug_assert_eq!(sums.len(), self.rect.pixel_count());
+        self.restore_counts(upto, stop_at, dropped, max_weight, samples_per_pixel);
         self.merged = sums;
-        self.merged_upto = upto;
         self.persisted_upto = upto;
-        self.next_new = upto;
-        self.stop_at = stop_at;
-        self.dropped = dropped;
-        self.max_weight = max_weight;
-        self.merged_samples = samples_per_pixel * self.rect.pixel_count() as u64;
         self.rel_mse.set(None);
     }
 
     /// Puts back a tile that was released before the checkpoint: its counts and noise, no sums.
     pub fn restore_released(&mut self, upto: u32, stop_at: Option<u32>, summary: &ReleasedTile, samples_per_pixel: u64) {
-        self.merged_upto = upto;
+        self.restore_counts(upto, stop_at, summary.dropped, summary.max_weight, samples_per_pixel);
         self.persisted_upto = 0;
-        self.next_new = upto;
-        self.stop_at = stop_at;
-        self.dropped = summary.dropped;
-        self.max_weight = summary.max_weight;
-        self.merged_samples = samples_per_pixel * self.rect.pixel_count() as u64;
         self.rel_mse.set(summary.noise);
         self.released = true;
+    }
+
+    /// What both restores put back: batches 0..upto merged, the noise stop, the counts.
+    fn restore_counts(&mut self, upto: u32, stop_at: Option<u32>, dropped: u64, max_weight: f64, samples_per_pixel: u64) {
+        self.merged_upto = upto;
+        self.next_new = upto;
+        self.stop_at = stop_at;
+        self.dropped = dropped;
+        self.max_weight = max_weight;
+        self.merged_samples = samples_per_pixel * self.rect.pixel_count() as u64;
     }
 
     /// Drops the sums once the tile's image is written and it takes no more batches, keeping

@@ -152,15 +152,19 @@ impl Store {
     /// Deletes checkpoint files superseded by a committed checkpoint.
     pub fn remove_superseded(&self, job_id: &str, tiles: &[TileCheckpoint]) {
         for t in tiles.iter().filter(|t| t.previous_upto > 0 && t.previous_upto != t.upto) {
-            let _ = std::fs::remove_file(self.job_dir(job_id).join(tile_file::file_name(t.tile, t.previous_upto)));
+            self.remove_tile_file(job_id, t.tile, t.previous_upto);
         }
+    }
+
+    fn remove_tile_file(&self, job_id: &str, tile: u32, upto: u32) {
+        let _ = std::fs::remove_file(self.job_dir(job_id).join(tile_file::file_name(tile, upto)));
     }
 
     /// Deletes the checkpoint files `(tile, batches)` of tiles whose image is written (their
     /// records, committed, no longer name them).
     pub fn remove_tile_files(&self, job_id: &str, files: &[(u32, u32)]) {
         for &(tile, upto) in files {
-            let _ = std::fs::remove_file(self.job_dir(job_id).join(tile_file::file_name(tile, upto)));
+            self.remove_tile_file(job_id, tile, upto);
         }
         if !files.is_empty() {
             // Gone once the job's last file is: an ended job keeps only its record and images.
