@@ -7,7 +7,8 @@
 //! (logged by a second render) are traced alone through both BVHs: the fair comparison, since
 //! random rays are not the rays a path tracer traces (see [`crate::bench::stock`]); for a glTF
 //! scene, where Mitsuba 3 is installed, also through its traversal, Embree
-//! ([`crate::bench::embree`]).
+//! ([`crate::bench::embree`]). Last, an animation frame's BVH refitted against one built anew
+//! ([`crate::bench::refit`]).
 //!
 //! The field is generated ([`crate::bench::field`]; no mesh file is shipped).
 use crate::bench::field::{bounds, field_parts, sphere_field};
@@ -20,7 +21,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 use tessera_worker::tracer::ray::Ray;
 use tessera_worker::tracer::{Scene, render_tile};
-use crate::bench::same_rays;
+use crate::bench::{refit, same_rays};
 use crate::bench::stock::StockBvh;
 
 #[derive(Clone, Debug, clap::Args)]
@@ -126,7 +127,9 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
         100.0 * rendering / stock_rate
     );
     drop(rays);
-    same_rays::run(&scene, &stock, b)
+    same_rays::run(&scene, &stock, b)?;
+    drop(stock);
+    refit::run(&scene.mesh.positions, &random_rays(b.rays.min(250_000), ray_box))
 }
 
 /// Renders the whole frame on a pool of one thread; returns the rays traced and the seconds.

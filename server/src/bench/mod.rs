@@ -10,6 +10,7 @@ pub mod heap;
 pub mod host;
 pub mod mitsuba;
 pub mod overhead;
+pub mod refit;
 pub mod same_rays;
 pub mod stock;
 

@@ -64,7 +64,8 @@ enum Cmd {
     /// A generated ~1M-triangle scene (or a bundled one): build time, incoherent rays/s (ours and
     /// obvhs's stock traversal on the same rays), a path-traced render's rays/s against both,
     /// peak memory; then the render's own rays, logged, traced alone through both BVHs, with our
-    /// walk's node and packet tests per ray.
+    /// walk's node and packet tests per ray; last, an animation frame's BVH refitted against one
+    /// built, the scene deformed by waves of three sizes.
     Bvh(tessera_server::bench::bvh::BvhBench),
     /// Writes the generated field `bvh` studies as binary glTF (positions only: 36 bytes a
     /// triangle), so it can be rendered as a job: `tessera render field.glb` then reports the

@@ -91,11 +91,13 @@ impl Parsed {
     }
 
     /// The scene, its BVH refitted from `previous` (another frame of the same sequence) when
-    /// that holds the same triangles, else built: see [`Accel::refit`].
+    /// that holds the same triangles, else built: see [`Accel::refit`]. A refit that would wear
+    /// the tree out ([`Accel::worn`]: its walk half as costly again as the tree's as built) is
+    /// dropped for a build, whose tree later frames refit.
     pub fn build_from(self, previous: &Scene) -> (Scene, Preparation) {
         match previous.accel.refit(&self.mesh.positions) {
-            Some(accel) => (self.with_accel(accel), Preparation::Refit),
-            None => (self.build(), Preparation::Build),
+            Some(accel) if !accel.worn() => (self.with_accel(accel), Preparation::Refit),
+            _ => (self.build(), Preparation::Build),
         }
     }
 

@@ -84,6 +84,27 @@ fn a_refitted_frame_renders_the_bits_of_a_rebuilt_one() {
     assert_eq!(how, Preparation::Build);
 }
 
+/// A frame whose triangles have moved far from where the previous frame's tree was built for
+/// them is built, not refitted (the refit would wear the tree out), and the frame after it
+/// refits the new tree.
+#[test]
+fn a_frame_that_would_wear_the_tree_out_is_built() {
+    let seq = animated();
+    let frame0 = seq.scene_at(Some(0), 0.0).unwrap();
+    let mut far = seq.parsed_at(Some(0), 0.0).unwrap();
+    // Every triangle's corners handed to another triangle: the same set of triangles, none
+    // where the tree put it.
+    let n = far.mesh.positions.len();
+    let scrambled: Vec<_> = (0..n).map(|i| far.mesh.positions[(i * 617) % n]).collect();
+    far.mesh.positions = scrambled;
+    assert!(frame0.accel.refit(&far.mesh.positions).is_some_and(|a| a.worn()));
+    let (built, how) = far.build_from(&frame0);
+    assert_eq!(how, Preparation::Build);
+    assert_eq!(built.accel.wear(), Some(1.0));
+    let (_, how) = seq.parsed_at(Some(0), 0.0).unwrap().build_from(&frame0);
+    assert_eq!(how, Preparation::Refit);
+}
+
 /// Benchmark, not a check: frame scene build vs refit for the animated Cornell box. Run with
 /// `cargo test -p tessera-worker --lib cornell_frame_build_vs_refit -- --ignored --nocapture`.
 #[test]

@@ -12,10 +12,12 @@
 //!   makes the scene about 2¹² units across, where 1e-4 is below f32 resolution.
 use crate::tracer::ray::{MACHINE_EPSILON, Ray};
 use glam::{DVec3, Vec3, Vec3A};
-use build::{WIDE_STACK, kept, tree_scale, tree_triangle, tree_triangles, wide_depth, wide_source, to_wide};
+use build::{Topology, WIDE_STACK, degenerate, finite, kept, tree_scale, tree_triangles, wide_depth, wide_source, to_wide};
 use packet::{Packets, WatertightRay, for_packets, intersect_triangle};
-use obvhs::{BvhBuildParams, bvh2::Bvh2, cwbvh::CwBvh, ray::RayHit};
+use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::RayHit};
+use std::sync::Arc;
 use std::time::Duration;
+pub use refit::WORN;
 pub use stats::WalkCounts;
 use stats::Tally;
 
@@ -41,9 +43,9 @@ pub struct Accel {
     /// Tree primitive slot → caller's triangle index.
     prim_ids: Vec<u32>,
     scale: f32,
-    /// The binary tree the wide one was converted from, kept by [`Accel::build_refittable`] so
-    /// [`Accel::refit`] can move its boxes instead of building again.
-    refit: Option<refit::RefitBase>,
+    /// The tree's topology, kept by [`Accel::build_refittable`] so [`Accel::refit`] can move its
+    /// boxes instead of building again; shared by every frame refitted from it.
+    refit: Option<Arc<refit::RefitBase>>,
     /// Whether queries run the walk compiled for AVX2 (`accel_avx2.rs`): the same hits.
     avx2: bool,
 }
@@ -64,8 +66,9 @@ impl Accel {
         Accel::build_with(tris, kind, false)
     }
 
-    /// [`Accel::build`], keeping what [`Accel::refit`] needs (the binary tree: about 96 bytes
-    /// per triangle more).
+    /// [`Accel::build`], keeping what [`Accel::refit`] needs: for the wide tree obvhs's nodes
+    /// and primitive slots (18 bytes per triangle more on the 1M-triangle field, `tessera-bench
+    /// bvh`), for the binary one the tree itself.
     pub fn build_refittable(tris: &[[Vec3; 3]], kind: BvhKind) -> Accel {
         Accel::build_with(tris, kind, true)
     }
@@ -73,55 +76,54 @@ impl Accel {
     /// The memory a build holds at once is most of a worker's peak on a large scene, so each
     /// part goes as soon as it has served: obvhs's copy of the triangles (48 bytes each) after
     /// the binary build, before the conversion to the wide tree allocates its own (the build's
-    /// high point), and the binary tree before the wide nodes are made, unless a refit needs it.
+    /// high point), and the binary tree before the wide nodes are made.
+    ///
+    /// A refittable tree also holds the degenerate triangles with finite corners, never hit (as
+    /// those that become degenerate in a refit), so that a later frame in which one is
+    /// degenerate no more can still be refitted.
     fn build_with(tris: &[[Vec3; 3]], kind: BvhKind, refittable: bool) -> Accel {
-        let keep = kept(tris);
+        let keep = if refittable { finite(tris) } else { kept(tris) };
+        let hidden = if refittable { degenerate(tris) } else { Vec::new() };
         let scale = tree_scale(keep.iter().map(|&i| &tris[i as usize]));
         if keep.is_empty() {
             return Accel { tree: Tree::Empty, tris: Packets::new(std::iter::empty()), prim_ids: Vec::new(), scale, refit: None, avx2: false };
         }
         let params = BvhBuildParams::medium_build();
-        let binary = || obvhs::bvh2::builder::build_bvh2_from_tris(&tree_triangles(tris, &keep, scale), params, &mut Duration::default());
-        let (tree, wide_slots, bvh2) = match kind {
+        let binary = || Topology::Binary(obvhs::bvh2::builder::build_bvh2_from_tris(&tree_triangles(tris, &keep, scale), params, &mut Duration::default()));
+        let topology = match kind {
             BvhKind::Wide => {
                 // A wide tree is walked with a fixed 32-entry stack (ours in accel_wide.rs, like
                 // obvhs's); a deeper tree would overflow it and silently drop nodes and hits. Pathological geometry (found by fuzzing) builds deeper
                 // trees: those get the binary tree, whose traversal stack grows.
                 let build = || {
                     let bvh2 = wide_source(&tree_triangles(tris, &keep, scale), params);
-                    (to_wide(&bvh2, params), bvh2)
+                    to_wide(&bvh2, params)
                 };
                 match std::panic::catch_unwind(std::panic::AssertUnwindSafe(build)) {
-                    Ok((bvh, bvh2)) if wide_depth(&bvh) < WIDE_STACK => {
-                        let bvh2 = refittable.then_some(bvh2);
-                        let (tree, slots) = Tree::wide(bvh, |p| tree_triangle(&tris[keep[p] as usize], scale).aabb());
-                        (tree, Some(slots), bvh2)
+                    Ok(mut bvh) if wide_depth(&bvh) < WIDE_STACK => {
+                        layout::pack_leaves(&mut bvh);
+                        Topology::Wide(bvh)
                     }
-                    _ => (Tree::Binary(binary()), None, None),
+                    _ => binary(),
                 }
             }
-            BvhKind::Binary => (Tree::Binary(binary()), None, None),
-        };
-        let refit = match (&tree, bvh2) {
-            (Tree::Wide(..), Some(bvh2)) => Some(refit::RefitBase { keep: keep.clone(), bvh2 }),
-            (Tree::Binary(b), _) if refittable => Some(refit::RefitBase { keep: keep.clone(), bvh2: b.clone() }),
-            _ => None,
-        };
-        Accel::assemble(tree, wide_slots, tris, &keep, scale, refit)
-    }
-
-    /// `wide_slots`: a wide tree's primitive slots (a binary tree keeps its own).
-    fn assemble(tree: Tree, wide_slots: Option<Vec<u32>>, tris: &[[Vec3; 3]], keep: &[u32], scale: f32, refit: Option<refit::RefitBase>) -> Accel {
-        let slots = match (&tree, &wide_slots) {
-            (Tree::Wide(_), Some(slots)) => slots,
-            (Tree::Binary(b), _) => &b.primitive_indices,
-            (Tree::Wide(_), None) => unreachable!("a wide tree comes with its slots"),
-            (Tree::Empty, _) => return Accel { tree, tris: Packets::new(std::iter::empty()), prim_ids: Vec::new(), scale, refit: None, avx2: false },
+            BvhKind::Binary => binary(),
         };
         // Padding slots (`layout::PAD`) are never tested: a zero triangle and index fill them.
-        let prim_ids: Vec<u32> = slots.iter().map(|&k| if k == layout::PAD { layout::PAD } else { keep[k as usize] }).collect();
-        let verts = prim_ids.iter().map(|&i| if i == layout::PAD { [Vec3::ZERO; 3] } else { tris[i as usize].map(|v| v * scale) });
-        Accel { tree, tris: Packets::new(verts), prim_ids, scale, refit, avx2: avx2::detected() }
+        let prim_ids: Vec<u32> = topology.slots().iter().map(|&k| if k == layout::PAD { layout::PAD } else { keep[k as usize] }).collect();
+        let packets = packets(&prim_ids, tris, scale, &hidden);
+        let (tree, wide) = match topology {
+            Topology::Wide(mut bvh) => {
+                let nodes = node::Node::of_tree(&bvh, |s| packets.slot_box(s));
+                // obvhs sizes its vectors for the worst case: half the node memory is spare.
+                bvh.nodes.shrink_to_fit();
+                bvh.primitive_indices.shrink_to_fit();
+                (Tree::Wide(nodes), refittable.then_some(bvh))
+            }
+            Topology::Binary(b) => (Tree::Binary(b), None),
+        };
+        let refit = refittable.then(|| Arc::new(refit::RefitBase { count: tris.len(), keep, wide, built_cost: tree.walk_cost() }));
+        Accel { tree, tris: packets, prim_ids, scale, refit, avx2: avx2::detected() }
     }
 
     /// Closest hit with 0 < t < t_max.
@@ -259,15 +261,6 @@ impl Accel {
     }
 }
 
-impl Tree {
-    /// The wide tree `bvh` and its primitive slots; `prim_box(p)`: the tree-space box of the
-    /// triangle its primitive indices call p.
-    fn wide(mut bvh: CwBvh, prim_box: impl Fn(usize) -> obvhs::aabb::Aabb) -> (Tree, Vec<u32>) {
-        layout::pack_leaves(&mut bvh);
-        let nodes = node::Node::of_tree(&bvh, prim_box);
-        (Tree::Wide(nodes), bvh.primitive_indices)
-    }
-}
 
 /// The unit geometric normal (counter-clockwise winding), computed in f64; None for a
 /// degenerate triangle: one whose smallest height is at most half an f32 ulp of its largest
@@ -281,6 +274,17 @@ pub fn triangle_normal(v: &[Vec3; 3]) -> Option<DVec3> {
     let reach = a.abs().max(b.abs()).max(c.abs()).max_element();
     let height = cross.length() / longest;
     (height > MACHINE_EPSILON as f64 * reach && height.is_finite()).then(|| cross / cross.length())
+}
+
+/// The tree's triangles in tree space, slot by slot (`prim_ids[k]`: the caller's triangle in
+/// slot k); a triangle `hidden` marks gets NaN corners, which fail every comparison of the
+/// triangle test, so it is never hit.
+fn packets(prim_ids: &[u32], tris: &[[Vec3; 3]], scale: f32, hidden: &[bool]) -> Packets {
+    Packets::new(prim_ids.iter().map(|&i| match i {
+        layout::PAD => [Vec3::ZERO; 3],
+        i if hidden.get(i as usize) == Some(&true) => [Vec3::NAN; 3],
+        i => tris[i as usize].map(|v| v * scale),
+    }))
 }
 
 /// 1/x per lane, with ±f32::MAX instead of ±∞ so that a slab test on a zero component gives

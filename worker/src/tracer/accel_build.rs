@@ -15,6 +15,11 @@ pub(super) fn kept(tris: &[[Vec3; 3]]) -> Vec<u32> {
     (0..tris.len() as u32).filter(|&i| super::triangle_normal(&tris[i as usize]).is_some()).collect()
 }
 
+/// The triangles a refittable tree holds: those with finite corners.
+pub(super) fn finite(tris: &[[Vec3; 3]]) -> Vec<u32> {
+    (0..tris.len() as u32).filter(|&i| tris[i as usize].iter().all(|v| v.is_finite())).collect()
+}
+
 /// The caller's triangles `keep`, scaled into tree space, as obvhs triangles.
 pub(super) fn tree_triangles(tris: &[[Vec3; 3]], keep: &[u32], scale: f32) -> Vec<Triangle> {
     keep.iter().map(|&i| tree_triangle(&tris[i as usize], scale)).collect()
@@ -25,8 +30,30 @@ pub(super) fn tree_triangle(t: &[Vec3; 3], scale: f32) -> Triangle {
     Triangle { v0: Vec3A::from(t[0] * scale), v1: Vec3A::from(t[1] * scale), v2: Vec3A::from(t[2] * scale) }
 }
 
+/// The tree obvhs built: wide (its leaves packed, `accel_layout.rs`), or binary.
+pub(super) enum Topology {
+    Wide(CwBvh),
+    Binary(Bvh2),
+}
+
+impl Topology {
+    /// Primitive slot → index into the triangles the tree was built over.
+    pub(super) fn slots(&self) -> &[u32] {
+        match self {
+            Topology::Wide(w) => &w.primitive_indices,
+            Topology::Binary(b) => &b.primitive_indices,
+        }
+    }
+}
+
+/// Per triangle, whether a refittable tree holds it but never hits it: degenerate (see
+/// [`super::triangle_normal`]).
+pub(super) fn degenerate(tris: &[[Vec3; 3]]) -> Vec<bool> {
+    tris.iter().map(|t| super::triangle_normal(t).is_none()).collect()
+}
+
 /// The binary tree obvhs's `build_cwbvh_from_tris` converts (the same steps, without spatial
-/// splits, which `medium_build` does not use), kept for refits.
+/// splits, which `medium_build` does not use).
 pub(super) fn wide_source(tris: &[Triangle], params: BvhBuildParams) -> Bvh2 {
     let mut bvh2 = PlocBuilder::with_capacity(tris.len()).build(
         params.ploc_search_distance,

@@ -25,7 +25,7 @@
 //! same test.
 #[cfg(test)]
 use glam::Vec3A;
-use glam::{BVec4A, Vec4};
+use glam::{BVec4A, Vec3, Vec4};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::{CwBvh, node::CwBvhNode};
 use obvhs::ray::Ray;
@@ -51,9 +51,9 @@ pub(super) struct Node {
 
 impl Node {
     /// Every node of the tree, its child boxes tight around the triangles below each child
-    /// (`prim_box(p)`: the tree-space box of the triangle `bvh.primitive_indices` calls p).
-    /// Empty slots keep an empty box.
-    pub(super) fn of_tree(bvh: &CwBvh, prim_box: impl Fn(usize) -> Aabb) -> Vec<Node> {
+    /// (`slot_box(s)`: the tree-space box of the triangle in primitive slot s, empty for one
+    /// never hit). Empty child slots keep an empty box.
+    pub(super) fn of_tree(bvh: &CwBvh, slot_box: impl Fn(usize) -> Aabb) -> Vec<Node> {
         let mut nodes: Vec<Node> = bvh.nodes.iter().map(Node::empty_with_links).collect();
         let mut node_box = vec![Aabb::INVALID; bvh.nodes.len()];
         // Children before parents: the reverse of a depth-first order from the root.
@@ -66,7 +66,7 @@ impl Node {
                     let (first, count) = node.child_primitives(child);
                     let meta = node.child_meta[child];
                     nodes[i].leaf_bits[child / 4][child % 4] = (u32::from(meta >> 5) << (meta & 0b1_1111)) as f32;
-                    (first..first + count).map(|slot| prim_box(bvh.primitive_indices[slot as usize] as usize)).fold(Aabb::INVALID, |a, b| a.union(&b))
+                    (first..first + count).map(|slot| slot_box(slot as usize)).fold(Aabb::INVALID, |a, b| a.union(&b))
                 };
                 nodes[i].set(child, &aabb);
                 node_box[i] = node_box[i].union(&aabb);
@@ -99,6 +99,38 @@ impl Node {
         let corner = |side: usize| Vec3A::from_array(std::array::from_fn(|axis| self.rows[2 * axis + side][child / 4][child % 4]));
         (corner(0), corner(1))
     }
+}
+
+/// The surface-area cost of walking `nodes`: per child box, its area times the work a ray that
+/// enters it does there (one node test for an inner child, a triangle test per triangle of a
+/// leaf), summed and divided by the root's area. If rays entered boxes in proportion to their
+/// areas (the SAH's assumption) this would be a ray's expected work; a refit compares it with
+/// the cost of the tree as built to tell when moved triangles have worn the tree out.
+pub(super) fn walk_cost(nodes: &[Node]) -> f64 {
+    let Some(root) = nodes.first() else { return 0.0 };
+    let child_box = |node: &Node, c: usize| {
+        let corner = |side: usize| Vec3::from_array(std::array::from_fn(|axis| node.rows[2 * axis + side][c / 4][c % 4]));
+        let (lo, hi) = (corner(0), corner(1));
+        (lo.cmple(hi).all()).then_some((lo, hi))
+    };
+    let area = |(lo, hi): (Vec3, Vec3)| {
+        let d = (hi - lo).as_dvec3();
+        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+    };
+    let mut work = 0.0;
+    for node in nodes {
+        for c in 0..8 {
+            let Some(b) = child_box(node, c) else { continue };
+            let tests = match node.imask & (1 << c) != 0 {
+                true => 1,
+                false => (node.leaf_bits[c / 4][c % 4] as u32).count_ones(),
+            };
+            work += area(b) * f64::from(tests);
+        }
+    }
+    let (lo, hi) = (0..8).filter_map(|c| child_box(root, c)).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (l, h)| (lo.min(l), hi.max(h)));
+    let root_area = area((lo, hi));
+    if root_area > 0.0 { work / root_area } else { 0.0 }
 }
 
 /// The tree's node indices, each parent before its children.

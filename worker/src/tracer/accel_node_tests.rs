@@ -38,7 +38,7 @@ fn enters(ray: &Ray, lo: Vec3A, hi: Vec3A) -> bool {
 #[test]
 fn child_boxes_are_tight_and_inside_the_quantized_ones() {
     let (bvh, tris) = random_tree(&mut Rng::new(3));
-    let boxes = Node::of_tree(&bvh, |p| tris[p].aabb());
+    let boxes = Node::of_tree(&bvh, |s| tris[bvh.primitive_indices[s] as usize].aabb());
     let mut leaves = 0;
     for (node, b) in bvh.nodes.iter().zip(&boxes) {
         let e = node.compute_extent();
@@ -75,7 +75,7 @@ fn child_boxes_are_tight_and_inside_the_quantized_ones() {
 fn every_entered_child_is_kept_and_no_more_than_obvhs_keeps() {
     let mut rng = Rng::new(1);
     let (bvh, tris) = random_tree(&mut rng);
-    let boxes = Node::of_tree(&bvh, |p| tris[p].aabb());
+    let boxes = Node::of_tree(&bvh, |s| tris[bvh.primitive_indices[s] as usize].aabb());
     let (mut tested, mut entered, mut differ, mut tighter) = (0, 0, 0, 0);
     for k in 0..2000 {
         let o = Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 140.0 - Vec3A::splat(20.0);
@@ -133,7 +133,7 @@ fn the_256_bit_test_keeps_what_the_128_bit_test_keeps() {
     }
     let mut rng = Rng::new(5);
     let (bvh, tris) = random_tree(&mut rng);
-    let nodes = Node::of_tree(&bvh, |p| tris[p].aabb());
+    let nodes = Node::of_tree(&bvh, |s| tris[bvh.primitive_indices[s] as usize].aabb());
     let (mut kept, mut tested) = (0u32, 0u32);
     for k in 0..4000 {
         let o = Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 140.0 - Vec3A::splat(20.0);

@@ -14,6 +14,7 @@
 //! triangle's hit does not depend on the packet it sits in.
 use crate::tracer::ray::gamma;
 use glam::{DVec3, Vec3, Vec3A, Vec4};
+use obvhs::aabb::Aabb;
 
 /// Per-ray constants: the axis permutation and shear that map the ray to +z through the
 /// origin, each in every lane. Kept small (and built inline), as it is made for every ray.
@@ -217,6 +218,15 @@ impl Packets {
 
     pub(super) fn triangle(&self, slot: usize) -> [Vec3; 3] {
         self.packets[slot / 4].triangle(slot % 4)
+    }
+
+    /// The box of slot `slot`'s triangle, empty for a triangle never hit (NaN corners).
+    pub(super) fn slot_box(&self, slot: usize) -> Aabb {
+        let [a, b, c] = self.triangle(slot);
+        match a.is_nan() {
+            true => Aabb::INVALID,
+            false => Aabb { min: a.min(b).min(c).into(), max: a.max(b).max(c).into() },
+        }
     }
 
     #[inline(always)]

@@ -1,61 +1,122 @@
 //! BVH refits for animation frames: the next frame's tree keeps this one's topology and only
-//! moves its boxes (obvhs `Bvh2::refit_all`), then the wide tree is converted again.
-use super::build::{WIDE_STACK, kept, to_wide, tree_scale, tree_triangles, wide_depth};
+//! moves its boxes, recomputed bottom-up from the moved triangles.
+//!
+//! The wide tree is refitted as the walk reads it: its nodes' tight f32 child boxes are made
+//! again from the triangles below each child ([`super::node::Node::of_tree`], as at build), over
+//! the links and packed primitive slots kept from the build. Until session 37 a refit moved the
+//! boxes of obvhs's binary tree and converted it to a wide tree again, most of a build's work:
+//! on the 1M-triangle field 0.57–0.66 s against a build's 0.85 s, now 0.08 s (`tessera-bench
+//! bvh`, docs/performance.md).
+//!
+//! A refittable tree holds every triangle with finite corners, the degenerate ones (see
+//! [`super::triangle_normal`]) with empty boxes and NaN corners, never hit. A triangle may then
+//! become degenerate or stop being so between frames and the tree still refits: a deforming
+//! mesh's slivers cross that line (the bench's waved field does), and each crossing used to
+//! cost a full build.
+//!
+//! The refitted tree has the topology the first frame's triangles chose, so the further
+//! triangles move from where they were built, the more its boxes overlap and the slower (never
+//! the wronger) its walk: a hit is the closest (t, triangle index) whatever the tree. Its
+//! [`Accel::wear`] (its surface-area cost against the cost as built) tells when a frame is
+//! better served by a build: [`Accel::worn`], past [`WORN`].
+use super::build::{degenerate, tree_scale};
 use super::{Accel, Tree};
 use glam::Vec3;
-use obvhs::{BvhBuildParams, aabb::Aabb, bvh2::Bvh2, triangle::Triangle};
+use obvhs::{aabb::Aabb, bvh2::Bvh2, cwbvh::CwBvh};
+use std::sync::Arc;
 
-/// What a refit needs: the caller's triangles the tree holds (its primitives, in input order)
-/// and the binary tree over them.
+/// What a refit needs besides the tree the walk reads: the caller's triangles the tree holds
+/// (its primitives, in input order) and, for a wide tree, obvhs's wide tree with its leaves
+/// packed (the links and primitive slots the walk's nodes were made from). A binary tree is its
+/// own topology.
 pub(super) struct RefitBase {
+    /// The number of triangles the tree was built over.
+    pub(super) count: usize,
     pub(super) keep: Vec<u32>,
-    pub(super) bvh2: Bvh2,
+    pub(super) wide: Option<CwBvh>,
+    /// The wide tree's surface-area cost as built ([`super::node::walk_cost`]).
+    pub(super) built_cost: Option<f64>,
 }
+
+impl RefitBase {
+    /// Per triangle of `tris`, whether it is degenerate (the tree holds it but must not hit it);
+    /// None if `tris` cannot be refitted onto this tree: another count, or a triangle the tree
+    /// left out (not finite when it was built) that is not degenerate now.
+    fn hidden(&self, tris: &[[Vec3; 3]]) -> Option<Vec<bool>> {
+        if tris.len() != self.count {
+            return None;
+        }
+        let hidden = degenerate(tris);
+        let mut held = self.keep.iter().peekable();
+        let left_out_now_solid = (0u32..).zip(&hidden).any(|(i, &h)| held.next_if_eq(&&i).is_none() && !h);
+        (!left_out_now_solid).then_some(hidden)
+    }
+}
+
+/// A refitted tree whose surface-area cost exceeds its cost as built by this factor is worn
+/// out: [`Accel::worn`].
+pub const WORN: f64 = 1.5;
 
 impl Accel {
     /// The tree for `tris`, made by moving the boxes of this one (built by
-    /// [`Accel::build_refittable`] over triangles that have since moved), not by building anew:
-    /// same topology, boxes refitted bottom-up, and for the wide tree a new conversion from the
-    /// refitted binary one. None when that is not possible: no binary tree kept, a different
-    /// set of (non-degenerate) triangles, or a wide tree that would be too deep.
+    /// [`Accel::build_refittable`] over triangles that have since moved), not by building anew.
+    /// None when that is not possible: no topology kept, another number of triangles, or a
+    /// triangle the tree left out (one with a corner not finite) that is not degenerate now. A
+    /// triangle the tree holds that is degenerate (see [`super::triangle_normal`]) stays in it,
+    /// never hit: its box is empty and its vertices NaN, which fail every comparison of the
+    /// triangle test.
     ///
     /// Hits do not depend on the tree: the closest hit is the smallest (t, triangle index)
     /// whatever the traversal order (see [`Accel::intersect_where`]).
     pub fn refit(&self, tris: &[[Vec3; 3]]) -> Option<Accel> {
         let base = self.refit.as_ref()?;
-        if kept(tris) != base.keep {
-            return None;
-        }
-        let scale = tree_scale(base.keep.iter().map(|&i| &tris[i as usize]));
-        let obvhs_tris = tree_triangles(tris, &base.keep, scale);
-        let mut bvh2 = base.bvh2.clone();
-        refit_boxes(&mut bvh2, &obvhs_tris);
-        let (tree, wide_slots) = match &self.tree {
-            Tree::Wide(..) => {
-                let wide = to_wide(&bvh2, BvhBuildParams::medium_build());
-                if wide_depth(&wide) >= WIDE_STACK {
-                    return None;
-                }
-                let (tree, slots) = Tree::wide(wide, |p| obvhs_tris[p].aabb());
-                (tree, Some(slots))
+        let hidden = base.hidden(tris)?;
+        let scale = tree_scale(base.keep.iter().filter(|&&i| !hidden[i as usize]).map(|&i| &tris[i as usize]));
+        let packets = super::packets(&self.prim_ids, tris, scale, &hidden);
+        let tree = match (&self.tree, &base.wide) {
+            (Tree::Wide(_), Some(wide)) => Tree::Wide(super::node::Node::of_tree(wide, |s| packets.slot_box(s))),
+            (Tree::Binary(b), _) => {
+                let mut b = b.clone();
+                refit_boxes(&mut b, |s| packets.slot_box(s));
+                Tree::Binary(b)
             }
-            Tree::Binary(_) => (Tree::Binary(bvh2.clone()), None),
-            Tree::Empty => return None,
+            _ => return None,
         };
-        let keep = base.keep.clone();
-        Some(Accel::assemble(tree, wide_slots, tris, &keep, scale, Some(RefitBase { keep: keep.clone(), bvh2 })))
+        Some(Accel { tree, tris: packets, prim_ids: self.prim_ids.clone(), scale, refit: Some(Arc::clone(base)), avx2: self.avx2 })
     }
 
+    /// The wide tree's surface-area cost against its cost as built: 1 for a tree as built, more
+    /// as refits onto moving triangles make its boxes overlap. None for a tree not built
+    /// refittable, or not wide.
+    pub fn wear(&self) -> Option<f64> {
+        let built = self.refit.as_ref()?.built_cost?;
+        let now = self.tree.walk_cost()?;
+        Some(if built > 0.0 { now / built } else { 1.0 })
+    }
+
+    /// Whether this tree's walk is expected to cost more than [`WORN`] times the walk of the tree
+    /// as built: the next frame should be built, not refitted.
+    pub fn worn(&self) -> bool {
+        self.wear().is_some_and(|w| w > WORN)
+    }
 }
 
-/// Leaf boxes from the moved triangles, then every inner box from its children.
-fn refit_boxes(bvh2: &mut Bvh2, tris: &[Triangle]) {
+impl Tree {
+    pub(super) fn walk_cost(&self) -> Option<f64> {
+        match self {
+            Tree::Wide(nodes) => Some(super::node::walk_cost(nodes)),
+            _ => None,
+        }
+    }
+}
+
+/// Leaf boxes from the moved triangles (`slot_box(s)`: the box of the triangle in primitive
+/// slot s), then every inner box from its children.
+fn refit_boxes(bvh2: &mut Bvh2, slot_box: impl Fn(usize) -> Aabb) {
     for node in bvh2.nodes.iter_mut().filter(|n| n.is_leaf()) {
         let first = node.first_index as usize;
-        let prims = &bvh2.primitive_indices[first..first + node.prim_count as usize];
-        let aabb = prims.iter().map(|&p| tris[p as usize].aabb()).reduce(|a, b| a.union(&b)).unwrap_or(Aabb::INVALID);
+        let aabb = (first..first + node.prim_count as usize).map(&slot_box).fold(Aabb::INVALID, |a, b| a.union(&b));
         node.set_aabb(aabb);
     }
     bvh2.refit_all();
 }
-

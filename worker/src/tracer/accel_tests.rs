@@ -168,6 +168,13 @@ fn a_refitted_tree_gives_the_hits_of_a_rebuilt_one() {
         // A refit of a refit still works, back to the start.
         let back = refit.refit(&tris).expect("refit again");
         assert_same_hits(&back, &Accel::build(&tris, kind), &mut rng, 5000, &format!("{kind:?} back"));
+        // Refitted back onto the triangles it was built for, a wide tree is the built one.
+        if let (Tree::Wide(built), Tree::Wide(again)) = (&first.tree, &back.tree) {
+            assert_eq!(built, again, "refitted back: the built tree's nodes");
+            assert_eq!(first.prim_ids, back.prim_ids);
+        } else {
+            assert_eq!(kind, BvhKind::Binary, "the soup builds a wide tree");
+        }
     }
     // Exact ties (rays through shared edges of a grid) go to the same triangle in both trees.
     let g = grid(16);
@@ -183,6 +190,31 @@ fn a_refitted_tree_gives_the_hits_of_a_rebuilt_one() {
     }
 }
 
+/// A refit's wear: 1 for the tree as built and for a refit that only scales the scene (the
+/// surface-area cost is relative to the root's area), above [`WORN`] once triangles have moved
+/// far from where the tree was built for them, barely above 1 for a small wobble.
+#[test]
+fn a_refit_onto_scrambled_triangles_is_worn_and_a_wobble_is_not() {
+    let mut rng = Rng(41);
+    let tris = soup(&mut rng, 3000);
+    let built = Accel::build_refittable(&tris, BvhKind::Wide);
+    assert_eq!(built.wear(), Some(1.0));
+    assert!(!built.worn());
+    assert_eq!(Accel::build(&tris, BvhKind::Wide).wear(), None, "not refittable: no cost as built");
+    let scaled: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|v| v * 3.0)).collect();
+    let wear = built.refit(&scaled).unwrap().wear().unwrap();
+    assert!((wear - 1.0).abs() < 1e-4, "scaled by 3: wear {wear}");
+    let wobbled: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|v| v + 0.002 * Vec3::new((v.y * 40.0).sin(), (v.z * 40.0).sin(), (v.x * 40.0).sin()))).collect();
+    let wobble = built.refit(&wobbled).unwrap();
+    assert!(wobble.wear().unwrap() < 1.1 && !wobble.worn(), "wobbled: wear {:?}", wobble.wear());
+    // Swap every triangle with one elsewhere in the soup: the topology now groups far-apart
+    // triangles, and its boxes span the scene.
+    let scrambled: Vec<[Vec3; 3]> = (0..tris.len()).map(|i| tris[(i * 1237) % tris.len()]).collect();
+    let scramble = built.refit(&scrambled).unwrap();
+    assert!(scramble.worn(), "scrambled: wear {:?}", scramble.wear());
+    assert!(Accel::build_refittable(&scrambled, BvhKind::Wide).wear() == Some(1.0));
+}
+
 #[test]
 fn refit_refuses_another_triangle_set() {
     let mut rng = Rng(3);
@@ -190,40 +222,40 @@ fn refit_refuses_another_triangle_set() {
     assert!(Accel::build(&tris, BvhKind::Wide).refit(&tris).is_none(), "built without refit data");
     let accel = Accel::build_refittable(&tris, BvhKind::Wide);
     assert!(accel.refit(&tris[..49]).is_none(), "one triangle fewer");
-    let mut collapsed = tris.clone();
-    collapsed[7] = [Vec3::ZERO; 3]; // degenerate now: left out of the tree
-    assert!(accel.refit(&collapsed).is_none(), "a triangle became degenerate");
+    let mut far = tris.clone();
+    far[7][1].x = f32::INFINITY; // not finite: left out of the tree
+    let without = Accel::build_refittable(&far, BvhKind::Wide);
+    assert!(without.refit(&tris).is_none(), "a triangle left out is one no more");
     assert!(accel.refit(&tris).is_some());
 }
 
-/// Benchmark, not a check: BVH build vs refit time (and the refitted tree's traversal speed)
-/// for ~100k moving triangles. Run with
-/// `cargo test -p tessera-worker --lib bvh_build_vs_refit -- --ignored --nocapture`.
+/// Triangles that become degenerate (collapsed to a point, or to a needle) between frames stay
+/// in the refitted tree and are never hit, as a tree built for the new frame leaves them out;
+/// refitted back, they are hit again.
 #[test]
-#[ignore]
-fn bvh_build_vs_refit() {
-    let mut rng = Rng(99);
-    let tris = soup(&mut rng, 100_000);
-    // The next "frame": every triangle moved a little (a wobble), as animated geometry does.
-    let moved: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|v| v + Vec3::new(0.02 * (v.y * 9.0).sin(), 0.0, 0.01))).collect();
-    let time = |f: &mut dyn FnMut()| {
-        let t0 = std::time::Instant::now();
-        for _ in 0..3 {
-            f();
+fn a_refit_keeps_triangles_that_became_degenerate_and_never_hits_them() {
+    let mut rng = Rng(23);
+    let tris = soup(&mut rng, 2000);
+    let mut moved = tris.clone();
+    for i in (0..tris.len()).step_by(7) {
+        let [a, b, _] = tris[i];
+        moved[i] = if i % 2 == 0 { [a; 3] } else { [a, b, a + (b - a) * 0.5] };
+    }
+    for kind in [BvhKind::Wide, BvhKind::Binary] {
+        let refit = Accel::build_refittable(&tris, kind).refit(&moved).expect("degenerate now: still refitted");
+        let rebuilt = Accel::build(&moved, kind);
+        assert_same_hits(&refit, &rebuilt, &mut rng, 20_000, &format!("{kind:?}"));
+        // Rays aimed at the collapsed triangles' former interiors.
+        for i in (0..tris.len()).step_by(7) {
+            let [a, b, c] = tris[i];
+            let ray = Ray::new(Vec3::splat(-1.0), (a + b + c) / 3.0 - Vec3::splat(-1.0));
+            let hit = refit.intersect(&ray, f32::INFINITY);
+            assert!(hit.is_none_or(|h| !(h.prim as usize).is_multiple_of(7)), "{kind:?}: hit collapsed triangle {hit:?}");
+            assert_eq!(hit, rebuilt.intersect(&ray, f32::INFINITY));
         }
-        t0.elapsed().as_secs_f64() * 1e3 / 3.0
-    };
-    let first = Accel::build_refittable(&tris, BvhKind::Wide);
-    let build_ms = time(&mut || drop(Accel::build_refittable(&moved, BvhKind::Wide)));
-    let refit_ms = time(&mut || drop(first.refit(&moved).unwrap()));
-    let (rebuilt, refit) = (Accel::build(&moved, BvhKind::Wide), first.refit(&moved).unwrap());
-    let rays: Vec<Ray> = (0..200_000).map(|_| Ray::new(rng.vec() * 3.0 - Vec3::ONE, (rng.vec() - Vec3::splat(0.5)).normalize_or(Vec3::X))).collect();
-    let trace = |a: &Accel| time(&mut || rays.iter().for_each(|r| {
-        std::hint::black_box(a.intersect(r, f32::INFINITY));
-    }));
-    let (rebuilt_ms, refit_trace_ms) = (trace(&rebuilt), trace(&refit));
-    println!("100k triangles, wide BVH, 1 thread: build {build_ms:.1} ms, refit {refit_ms:.1} ms");
-    println!("200k random rays: rebuilt tree {rebuilt_ms:.1} ms, refitted tree {refit_trace_ms:.1} ms");
+        let back = Accel::build_refittable(&moved, kind).refit(&tris).expect("degenerate no more: still refitted");
+        assert_same_hits(&back, &Accel::build(&tris, kind), &mut rng, 20_000, &format!("{kind:?} back"));
+    }
 }
 
 /// A direction component of −0.0 is a zero like +0.0: its reciprocal is −MAX, so a slab test
