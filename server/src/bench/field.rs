@@ -71,38 +71,115 @@ pub fn field_parts(spheres: Vec<[Vec3; 3]>) -> (Mesh, Vec<Material>, Camera) {
 /// (in that order, so triangle indices match [`field_parts`]), positions only (the loader gives
 /// flat triangles their face normals), materials purely diffuse (metallic 0, specular 0).
 pub fn field_glb(spheres: &[[Vec3; 3]]) -> Vec<u8> {
+    glb(spheres, false)
+}
+
+/// [`field_glb`] with each row of spheres (along x) its own node, sliding to and fro along x
+/// in an animation (`slide`, [`SLIDE_S`] seconds, LINEAR keys at 24 per second): row r is at
+/// x + [`SLIDE`] · sin(π t + 0.9 r) at time t, so rows move against each other and an
+/// animation frame's refitted BVH sees its boxes stretch. Triangle indices match
+/// [`field_parts`]'s.
+pub fn sliding_field_glb(spheres: &[[Vec3; 3]]) -> Vec<u8> {
+    glb(spheres, true)
+}
+
+/// How far the rows of [`sliding_field_glb`] slide (spheres are 2 apart, of radius 0.8), and
+/// for how long the animation runs.
+pub const SLIDE: f32 = 0.5;
+pub const SLIDE_S: f32 = 2.0;
+
+fn glb(spheres: &[[Vec3; 3]], sliding: bool) -> Vec<u8> {
     let around = Surroundings::of(spheres);
-    let parts: [&[[Vec3; 3]]; 3] = [spheres, &around.light, &around.ground];
-    const TRIANGLE_BYTES: usize = size_of::<[Vec3; 3]>();
-    let mut bin = Vec::with_capacity(parts.iter().map(|p| p.len() * TRIANGLE_BYTES).sum());
-    let (mut views, mut accessors) = (Vec::new(), Vec::new());
-    for p in parts {
-        let (lo, hi) = bounds(p);
-        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": p.len() * TRIANGLE_BYTES}));
-        accessors.push(json!({"bufferView": accessors.len(), "componentType": 5126, "count": p.len() * 3, "type": "VEC3", "min": lo.to_array(), "max": hi.to_array()}));
-        bin.extend(p.iter().flatten().flat_map(|v| v.to_array()).flat_map(f32::to_le_bytes));
-    }
-    // Accessor i holds part i; the light (part 1) has material 1.
-    let primitives: Vec<_> = (0..3).map(|i| json!({"attributes": {"POSITION": i}, "material": usize::from(i == 1)})).collect();
+    let row = match sliding {
+        true => spheres_per_side(spheres.len()) * PER_SPHERE,
+        false => spheres.len().max(1),
+    };
+    let rows: Vec<&[[Vec3; 3]]> = spheres.chunks(row).collect();
+    let mut bin = Bin::default();
+    let positions: Vec<usize> = rows.iter().chain([&&around.light[..], &&around.ground[..]]).map(|p| bin.positions(p)).collect();
+    let (light, ground) = (positions[rows.len()], positions[rows.len() + 1]);
+    let primitive = |accessor: usize, material: usize| json!({"attributes": {"POSITION": accessor}, "material": material});
+    let room = [primitive(light, 1), primitive(ground, 0)];
+    let (meshes, mut nodes, animations) = match sliding {
+        false => {
+            let primitives = [primitive(positions[0], 0), room[0].clone(), room[1].clone()];
+            (vec![json!({"name": "field", "primitives": primitives})], vec![json!({"name": "field", "mesh": 0})], vec![])
+        }
+        true => {
+            let keys: Vec<f32> = (0..=(24.0 * SLIDE_S) as usize).map(|i| i as f32 / 24.0).collect();
+            let times = bin.scalars(&keys);
+            let mut meshes: Vec<_> = (0..rows.len()).map(|r| json!({"name": format!("row {r}"), "primitives": [primitive(positions[r], 0)]})).collect();
+            meshes.push(json!({"name": "room", "primitives": room}));
+            let nodes: Vec<_> = (0..meshes.len()).map(|m| json!({"mesh": m})).collect();
+            let (mut channels, mut samplers) = (Vec::new(), Vec::new());
+            for r in 0..rows.len() {
+                let moves: Vec<Vec3> = keys.iter().map(|t| Vec3::X * SLIDE * (PI * t + 0.9 * r as f32).sin()).collect();
+                samplers.push(json!({"input": times, "output": bin.vectors(&moves), "interpolation": "LINEAR"}));
+                channels.push(json!({"sampler": r, "target": {"node": r, "path": "translation"}}));
+            }
+            (meshes, nodes, vec![json!({"name": "slide", "channels": channels, "samplers": samplers})])
+        }
+    };
+    nodes.push(json!({"name": "camera", "camera": 0, "matrix": around.camera.to_cols_array()}));
     let diffuse = |albedo: f32| json!({"baseColorFactor": [albedo, albedo, albedo, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0});
-    let gltf = json!({
+    let mut gltf = json!({
         "asset": {"version": "2.0", "generator": "tessera-bench field"},
         "extensionsUsed": ["KHR_materials_specular", "KHR_materials_emissive_strength"],
         "scene": 0,
-        "scenes": [{"name": "field", "nodes": [0, 1]}],
-        "nodes": [{"name": "field", "mesh": 0}, {"name": "camera", "camera": 0, "matrix": around.camera.to_cols_array()}],
+        "scenes": [{"name": "field", "nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+        "nodes": nodes,
         "cameras": [{"name": "field", "type": "perspective", "perspective": {"yfov": YFOV, "znear": 0.01}}],
-        "meshes": [{"name": "field", "primitives": primitives}],
+        "meshes": meshes,
         "materials": [
             {"name": "spheres", "pbrMetallicRoughness": diffuse(GREY), "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}},
             {"name": "light", "pbrMetallicRoughness": diffuse(0.0), "emissiveFactor": [1.0, 1.0, 1.0],
              "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}, "KHR_materials_emissive_strength": {"emissiveStrength": RADIANCE}}},
         ],
-        "accessors": accessors,
-        "bufferViews": views,
-        "buffers": [{"byteLength": bin.len()}],
+        "accessors": bin.accessors,
+        "bufferViews": bin.views,
+        "buffers": [{"byteLength": bin.bytes.len()}],
     });
-    tessera_worker::scene::pack_glb(&gltf.to_string(), &bin)
+    if !animations.is_empty() {
+        gltf["animations"] = json!(animations);
+    }
+    tessera_worker::scene::pack_glb(&gltf.to_string(), &bin.bytes)
+}
+
+/// The binary chunk being written, with a buffer view and an accessor per array of f32s.
+#[derive(Default)]
+struct Bin {
+    bytes: Vec<u8>,
+    views: Vec<serde_json::Value>,
+    accessors: Vec<serde_json::Value>,
+}
+
+impl Bin {
+    /// Triangles' corners as a POSITION accessor; returns its index.
+    fn positions(&mut self, tris: &[[Vec3; 3]]) -> usize {
+        let corners: Vec<Vec3> = tris.iter().flatten().copied().collect();
+        self.vectors(&corners)
+    }
+
+    fn vectors(&mut self, v: &[Vec3]) -> usize {
+        let (lo, hi) = v.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let floats: Vec<f32> = v.iter().flat_map(|p| p.to_array()).collect();
+        self.push(&floats, json!({"type": "VEC3", "count": v.len(), "min": lo.to_array(), "max": hi.to_array()}))
+    }
+
+    fn scalars(&mut self, v: &[f32]) -> usize {
+        let (lo, hi) = v.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+        self.push(v, json!({"type": "SCALAR", "count": v.len(), "min": [lo], "max": [hi]}))
+    }
+
+    fn push(&mut self, floats: &[f32], mut accessor: serde_json::Value) -> usize {
+        let index = self.accessors.len();
+        self.views.push(json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": floats.len() * 4}));
+        self.bytes.extend(floats.iter().flat_map(|x| x.to_le_bytes()));
+        accessor["bufferView"] = json!(index);
+        accessor["componentType"] = json!(5126);
+        self.accessors.push(accessor);
+        index
+    }
 }
 
 /// Camera to world at `eye` looking at `target` (+y up), as glTF cameras look (down −z).
@@ -171,5 +248,40 @@ mod tests {
         assert_eq!(used(&scene.materials), used(&materials), "the same BSDF parameters and emission");
         let c = &scene.cameras[0];
         assert!(c.to_world.abs_diff_eq(camera.to_world, 1e-6) && c.yfov == camera.yfov, "{c:?} vs {camera:?}");
+    }
+
+    /// The sliding field: one animation, and from time t1 to t2 each row of spheres (told by
+    /// its z) moves along x by [`SLIDE`] · (sin(π t2 + 0.9 r) − sin(π t1 + 0.9 r)) (up to
+    /// rounding; t1 and t2 on keys) while the light and the ground stay. The next frame refits the last one's BVH.
+    #[test]
+    fn the_sliding_field_moves_its_rows_against_each_other() {
+        use tessera_worker::scene::{Preparation, Sequence};
+        let spheres = sphere_field(4 * PER_SPHERE); // two rows of two
+        let seq = Sequence::parse(&sliding_field_glb(&spheres), None).expect("the sliding field parses");
+        let info = seq.animations();
+        assert_eq!((info.len(), info[0].name.as_deref(), info[0].channels), (1, Some("slide"), 2));
+        assert!((info[0].duration_s - f64::from(SLIDE_S)).abs() < 1e-6);
+        let (t1, t2) = (7.0 / 24.0, 17.0 / 24.0); // on keys: between them the motion is linear
+        let (a, b) = (seq.scene_at(Some(0), t1).unwrap(), seq.scene_at(Some(0), t2).unwrap());
+        assert_eq!(a.mesh.positions.len(), spheres.len() + 4);
+        let x = |t: f64, r: f32| SLIDE * (PI * t as f32 + 0.9 * r).sin();
+        let mut rows = [0; 2];
+        for (i, (p, q)) in a.mesh.positions.iter().zip(&b.mesh.positions).enumerate() {
+            let centre = (p[0] + p[1] + p[2]) / 3.0;
+            let shift = match centre.y {
+                0.0 | 6.0 => 0.0, // the ground and the light
+                _ => {
+                    let r = ((centre.z - 1.0) / 2.0).round() as usize;
+                    rows[r] += 1;
+                    x(t2, r as f32) - x(t1, r as f32)
+                }
+            };
+            for (v, w) in p.iter().zip(q) {
+                assert!((*w - (*v + Vec3::X * shift)).abs().max_element() < 1e-5, "triangle {i}: {v} → {w}, not by {shift}");
+            }
+        }
+        assert_eq!(rows, [2 * PER_SPHERE; 2]);
+        let (_, how) = seq.scene_after(&a, Some(0), t1 + 1.0 / 24.0).unwrap();
+        assert_eq!(how, Preparation::Refit);
     }
 }

@@ -77,6 +77,11 @@ enum Cmd {
         /// Where to write the .glb.
         #[arg(short, long, default_value = "field.glb")]
         output: std::path::PathBuf,
+        /// Each row of spheres its own node, sliding to and fro along x in a 2-second
+        /// animation (`slide`): rows move against each other, so an animation job's frames
+        /// refit each other's BVH (`tessera-bench frames --scene FILE`).
+        #[arg(long)]
+        sliding: bool,
     },
     /// An animation job (frames 0..N−1) on local workers with frame affinity on and off.
     Frames(tessera_server::bench::frames::FramesBench),
@@ -123,7 +128,7 @@ fn main() -> anyhow::Result<()> {
         Cmd::Roundtrips { seconds, workers, tile, separate_leases, watchers } => roundtrips(seconds, workers, tile, !separate_leases, watchers),
         Cmd::Effects { scene, size, spp, repeats } => effects(&scene, size, spp, repeats),
         Cmd::Accuracy(options) => tessera_server::bench::accuracy::run(options).map(|_| ()),
-        Cmd::Field { triangles, output } => write_field(triangles, &output),
+        Cmd::Field { triangles, output, sliding } => write_field(triangles, &output, sliding),
         Cmd::Frames(b) => tessera_server::bench::frames::run(&b),
         Cmd::Bvh(b) => tessera_server::bench::bvh::run(&b),
         Cmd::Mitsuba(b) => tessera_server::bench::mitsuba::run(&b).map(|_| ()),
@@ -261,10 +266,10 @@ async fn fake_worker(i: usize, http: reqwest::Client, url: String, template: Vec
     Ok(done)
 }
 
-fn write_field(triangles: usize, output: &std::path::Path) -> anyhow::Result<()> {
+fn write_field(triangles: usize, output: &std::path::Path, sliding: bool) -> anyhow::Result<()> {
     use tessera_server::bench::field;
     let spheres = field::sphere_field(triangles);
-    let glb = field::field_glb(&spheres);
+    let glb = if sliding { field::sliding_field_glb(&spheres) } else { field::field_glb(&spheres) };
     std::fs::write(output, &glb).map_err(|e| anyhow::anyhow!("writing {}: {e}", output.display()))?;
     tessera_server::say!("{}: {} triangles (the spheres, a ground and a light), {:.1} MiB", output.display(), spheres.len() + 4, glb.len() as f64 / f64::from(1 << 20));
     Ok(())

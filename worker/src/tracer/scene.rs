@@ -101,10 +101,11 @@ impl Scene {
                 }
         }
         lights.extend(punctual);
+        // A degenerate triangle's face normal is zero, a solid one's a unit vector.
+        let face_normals: Vec<Vec3> = mesh.positions.iter().map(|v| triangle_normal(v).map_or(Vec3::ZERO, |n| n.as_vec3())).collect();
         // Degenerate triangles are not geometry: they must not move the bounds either.
-        let solid: Vec<[Vec3; 3]> = mesh.positions.iter().filter(|v| triangle_normal(v).is_some()).copied().collect();
-        let (bounds_centre, bounds_radius) = bounding_sphere(&solid);
-        let face_normals = mesh.positions.iter().map(|v| triangle_normal(v).map_or(Vec3::ZERO, |n| n.as_vec3())).collect();
+        let solid = mesh.positions.iter().zip(&face_normals).filter(|(_, n)| **n != Vec3::ZERO).map(|(v, _)| v);
+        let (bounds_centre, bounds_radius) = bounding_sphere(solid);
         let mut used = vec![false; materials.len()];
         mesh.material.iter().for_each(|&m| used[m as usize] = true);
         let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
@@ -144,13 +145,15 @@ impl Scene {
     }
 }
 
-fn bounding_sphere(tris: &[[Vec3; 3]]) -> (Vec3, f32) {
+fn bounding_sphere<'a>(tris: impl Iterator<Item = &'a [Vec3; 3]>) -> (Vec3, f32) {
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for v in tris.iter().flatten() {
+    let mut empty = true;
+    for v in tris.flatten() {
         lo = lo.min(*v);
         hi = hi.max(*v);
+        empty = false;
     }
-    if tris.is_empty() {
+    if empty {
         return (Vec3::ZERO, 1.0);
     }
     let c = (lo + hi) * 0.5;
