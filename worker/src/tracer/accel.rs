@@ -261,7 +261,6 @@ impl Accel {
     }
 }
 
-
 /// The unit geometric normal (counter-clockwise winding), computed in f64; None for a
 /// degenerate triangle: one whose smallest height is at most half an f32 ulp of its largest
 /// coordinate (zero-area triangles, needles). f32 cannot place a point strictly inside such a
