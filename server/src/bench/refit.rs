@@ -27,7 +27,7 @@ pub fn run(positions: &[[Vec3; 3]], rays: &[Ray]) -> anyhow::Result<()> {
         true => format!(", holding {:.1} B per triangle more than a still's", (held(&first, before) as f64 - plain as f64) / positions.len() as f64),
         false => String::new(),
     };
-    crate::say!("animation frames: the first frame's refittable BVH built in {refittable_s:.3} s{more}; the next frame, every vertex moved by a wave, refitted and built ({} random rays, one core):", rays.len());
+    crate::say!("animation frames: the first frame's refittable BVH built in {}{more}; the next frame, every vertex moved by a wave, refitted and built ({} random rays, one core):", seconds(refittable_s), rays.len());
     for amplitude in AMPLITUDES {
         let moved = waved(positions, amplitude);
         let t = Instant::now();
@@ -41,10 +41,10 @@ pub fn run(positions: &[[Vec3; 3]], rays: &[Ray]) -> anyhow::Result<()> {
         anyhow::ensure!(refitted_hits == rebuilt_hits, "the refitted and the rebuilt tree disagree on a hit");
         let wear = refitted.wear().unwrap_or(f64::NAN);
         crate::say!(
-            "  wave of {:.1} % of the scene's size: refit {:.3} s, build {:.3} s ({:.1}× faster); rays through the refitted tree {:.2} M/s, {:.0} % of the rebuilt tree's {:.2} M/s (same hits); wear {:.2} ({})",
+            "  wave of {:.1} % of the scene's size: refit {}, build {} ({:.1}× faster); rays through the refitted tree {:.2} M/s, {:.0} % of the rebuilt tree's {:.2} M/s (same hits); wear {:.2} ({})",
             100.0 * amplitude,
-            refit_s,
-            build_s,
+            seconds(refit_s),
+            seconds(build_s),
             build_s / refit_s,
             rays.len() as f64 / refitted_s / 1e6,
             100.0 * rebuilt_s / refitted_s,
@@ -54,6 +54,14 @@ pub fn run(positions: &[[Vec3; 3]], rays: &[Ray]) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// `s` seconds, in milliseconds below a hundredth of a second (a small scene's refit).
+fn seconds(s: f64) -> String {
+    match s {
+        s if s < 0.01 => format!("{:.3} ms", s * 1e3),
+        s => format!("{s:.3} s"),
+    }
 }
 
 /// The heap bytes held now beyond `before`, while `_accel` is alive.
