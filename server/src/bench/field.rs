@@ -161,7 +161,7 @@ impl Bin {
     }
 
     fn vectors(&mut self, v: &[Vec3]) -> usize {
-        let (lo, hi) = v.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let (lo, hi) = corners_box(v.iter());
         let floats: Vec<f32> = v.iter().flat_map(|p| p.to_array()).collect();
         self.push(&floats, json!({"type": "VEC3", "count": v.len(), "min": lo.to_array(), "max": hi.to_array()}))
     }
@@ -191,7 +191,12 @@ fn look_at(eye: Vec3, target: Vec3) -> Mat4 {
 
 /// The axis-aligned box around the triangles.
 pub fn bounds(tris: &[[Vec3; 3]]) -> (Vec3, Vec3) {
-    tris.iter().flatten().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)))
+    corners_box(tris.iter().flatten())
+}
+
+/// The axis-aligned box around the points.
+fn corners_box<'a>(points: impl Iterator<Item = &'a Vec3>) -> (Vec3, Vec3) {
+    points.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)))
 }
 
 const SEGMENTS: usize = 128;

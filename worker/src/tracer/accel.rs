@@ -84,6 +84,8 @@ impl Accel {
     fn build_with(tris: &[[Vec3; 3]], kind: BvhKind, refittable: bool) -> Accel {
         let keep = if refittable { finite(tris) } else { kept(tris) };
         let hidden = if refittable { degenerate(tris) } else { Vec::new() };
+        // Over every triangle held, hidden ones too: obvhs's build takes their boxes as well
+        // (a refit, which gives hidden triangles empty boxes, scales by the others alone).
         let scale = tree_scale(keep.iter().map(|&i| &tris[i as usize]));
         if keep.is_empty() {
             return Accel { tree: Tree::Empty, tris: Packets::new(std::iter::empty()), prim_ids: Vec::new(), scale, refit: None, avx2: false };

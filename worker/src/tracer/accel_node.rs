@@ -23,9 +23,7 @@
 //!
 //! The arithmetic is glam's `Vec4` (SSE2 on x86_64, NEON on aarch64), so every target gets the
 //! same test.
-#[cfg(test)]
-use glam::Vec3A;
-use glam::{BVec4A, Vec3, Vec4};
+use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::{CwBvh, node::CwBvhNode};
 use obvhs::ray::Ray;
@@ -93,8 +91,7 @@ impl Node {
         }
     }
 
-    /// Child `child`'s box as (min, max) corners.
-    #[cfg(test)]
+    /// Child `child`'s box as (min, max) corners (min > max for an empty child slot).
     pub(super) fn child(&self, child: usize) -> (Vec3A, Vec3A) {
         let corner = |side: usize| Vec3A::from_array(std::array::from_fn(|axis| self.rows[2 * axis + side][child / 4][child % 4]));
         (corner(0), corner(1))
@@ -108,12 +105,8 @@ impl Node {
 /// the cost of the tree as built to tell when moved triangles have worn the tree out.
 pub(super) fn walk_cost(nodes: &[Node]) -> f64 {
     let Some(root) = nodes.first() else { return 0.0 };
-    let child_box = |node: &Node, c: usize| {
-        let corner = |side: usize| Vec3::from_array(std::array::from_fn(|axis| node.rows[2 * axis + side][c / 4][c % 4]));
-        let (lo, hi) = (corner(0), corner(1));
-        (lo.cmple(hi).all()).then_some((lo, hi))
-    };
-    let area = |(lo, hi): (Vec3, Vec3)| {
+    let child_box = |node: &Node, c: usize| Some(node.child(c)).filter(|(lo, hi)| lo.cmple(*hi).all());
+    let area = |(lo, hi): (Vec3A, Vec3A)| {
         let d = (hi - lo).as_dvec3();
         2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
     };
@@ -128,7 +121,7 @@ pub(super) fn walk_cost(nodes: &[Node]) -> f64 {
             work += area(b) * f64::from(tests);
         }
     }
-    let (lo, hi) = (0..8).filter_map(|c| child_box(root, c)).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (l, h)| (lo.min(l), hi.max(h)));
+    let (lo, hi) = (0..8).filter_map(|c| child_box(root, c)).fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), (l, h)| (lo.min(l), hi.max(h)));
     let root_area = area((lo, hi));
     if root_area > 0.0 { work / root_area } else { 0.0 }
 }
