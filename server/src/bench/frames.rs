@@ -32,9 +32,13 @@ pub struct FramesBench {
     /// Frames 0..N−1 of the scene's first animation.
     #[arg(long, default_value_t = 8)]
     pub frames: u32,
-    /// Local workers, one render thread each.
+    /// Local workers.
     #[arg(long, default_value_t = 3)]
     pub workers: usize,
+    /// Render threads per worker; a worker prepares each frame's scene (posing, face normals,
+    /// BVH build or refit) on these threads too.
+    #[arg(long, default_value_t = 1)]
+    pub threads: usize,
     /// Alternating runs with affinity on and off; the fastest of each is reported.
     #[arg(long, default_value_t = 3)]
     pub repeats: u32,
@@ -53,8 +57,8 @@ pub fn run(b: &FramesBench) -> anyhow::Result<()> {
         }
     }
     crate::say!(
-        "{} frames of {} at {}×{}, {} spp, {} local workers (1 thread each), fastest of {}:",
-        b.frames, b.scene, b.size, b.size, b.spp, b.workers, b.repeats
+        "{} frames of {} at {}×{}, {} spp, {} local workers ({} threads each), fastest of {}:",
+        b.frames, b.scene, b.size, b.size, b.spp, b.workers, b.threads, b.repeats
     );
     for (name, r) in [("affinity on ", on), ("affinity off", off)] {
         crate::say!(
@@ -73,7 +77,7 @@ pub fn run(b: &FramesBench) -> anyhow::Result<()> {
 async fn once(b: &FramesBench, affinity: bool) -> anyhow::Result<FramesRun> {
     let scene = b.scene.clone();
     let scratch = crate::scratch::ScratchDir::new(&format!("bench-frames-{affinity}"));
-    let farm = LocalFarm { worker_threads: vec![1; b.workers], frame_affinity: affinity };
+    let farm = LocalFarm { worker_threads: vec![b.threads.max(1); b.workers], frame_affinity: affinity };
     let mut request = JobRequest {
         scene: String::new(),
         width: b.size,

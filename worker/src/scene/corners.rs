@@ -37,8 +37,10 @@ impl Corners {
         }
     }
 
-    /// The triangles of `mode` (lists, strips, fans); None for points and lines.
-    pub fn triangles(&self, mode: Mode) -> Option<impl Iterator<Item = [u32; 3]> + '_> {
+    /// The triangles of `mode` (lists, strips, fans) by index: how many there are and triangle
+    /// t's corners, so that they can be read in any order (by several threads); None for points
+    /// and lines.
+    pub fn indexed(&self, mode: Mode) -> Option<(usize, impl Fn(usize) -> [u32; 3] + Sync + '_)> {
         let n = self.len();
         let (count, shape): (usize, TriangleAt) = match mode {
             Mode::Triangles => (n / 3, |c, t| [c.at(3 * t), c.at(3 * t + 1), c.at(3 * t + 2)]),
@@ -50,7 +52,7 @@ impl Corners {
             Mode::TriangleFan => (n.saturating_sub(2), |c, t| [c.at(0), c.at(t + 1), c.at(t + 2)]),
             _ => return None,
         };
-        Some((0..count).map(move |t| shape(self, t)))
+        Some((count, move |t| shape(self, t)))
     }
 }
 
@@ -58,8 +60,13 @@ impl Corners {
 mod tests {
     use super::*;
 
+    fn triangles(c: &Corners, mode: Mode) -> Option<Vec<[u32; 3]>> {
+        let (count, at) = c.indexed(mode)?;
+        Some((0..count).map(at).collect())
+    }
+
     fn listed(mode: Mode, ix: &[u32]) -> Vec<[u32; 3]> {
-        Corners::Listed(ix.to_vec()).triangles(mode).unwrap().collect()
+        triangles(&Corners::Listed(ix.to_vec()), mode).unwrap()
     }
 
     #[test]
@@ -68,7 +75,7 @@ mod tests {
         assert_eq!(listed(Mode::TriangleStrip, &[0, 1, 2, 3, 4]), [[0, 1, 2], [2, 1, 3], [2, 3, 4]]);
         assert_eq!(listed(Mode::TriangleFan, &[0, 1, 2, 3, 4]), [[0, 1, 2], [0, 2, 3], [0, 3, 4]]);
         assert_eq!(listed(Mode::TriangleFan, &[0, 1]), Vec::<[u32; 3]>::new());
-        assert!(Corners::InOrder(3).triangles(Mode::Lines).is_none());
+        assert!(triangles(&Corners::InOrder(3), Mode::Lines).is_none());
     }
 
     #[test]
@@ -76,7 +83,7 @@ mod tests {
         for mode in [Mode::Triangles, Mode::TriangleStrip, Mode::TriangleFan] {
             for n in 0..8 {
                 let ix: Vec<u32> = (0..n).collect();
-                let in_order: Vec<_> = Corners::InOrder(n).triangles(mode).unwrap().collect();
+                let in_order = triangles(&Corners::InOrder(n), mode).unwrap();
                 assert_eq!(in_order, listed(mode, &ix), "{mode:?} with {n} vertices");
             }
         }

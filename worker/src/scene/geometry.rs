@@ -9,6 +9,7 @@ use crate::tracer::scene::Mesh;
 use std::borrow::Cow;
 use glam::{DMat4, DVec3, Mat3, Mat4, Vec2, Vec3, Vec4};
 use super::budget::{self, TriangleBudget};
+use rayon::prelude::*;
 
 pub struct Parts {
     pub mesh: Mesh,
@@ -249,11 +250,18 @@ fn add_mesh(out: &mut Sink, mesh: &gltf::Mesh, world64: DMat4, buffers: &[Vec<u8
             Some(m) => return Err(SceneError::new(at(&format!("material {m} does not exist")))),
             None => material_count as u32, // glTF's default material, appended by the loader
         };
-        let triangles = corners.triangles(prim.mode()).ok_or_else(|| SceneError::new(at("not a triangle mode (points and lines have no area)")))?;
-        for [a, b, c] in triangles {
-            let corners = if mirrored { [a, c, b] } else { [a, b, c] };
-            let p64 = corners.map(|i| world64.transform_point3(Vec3::from(positions[i as usize]).as_dvec3()));
-            let face = (p64[1] - p64[0]).cross(p64[2] - p64[0]).normalize_or_zero().as_vec3();
+        let (count, corners_of) = corners.indexed(prim.mode()).ok_or_else(|| SceneError::new(at("not a triangle mode (points and lines have no area)")))?;
+        let corners_at = |t: usize| {
+            let [a, b, c] = corners_of(t);
+            if mirrored { [a, c, b] } else { [a, b, c] }
+        };
+        let first = out.mesh.positions.len();
+        out.mesh.positions.resize(first + count, [Vec3::ZERO; 3]);
+        let mut faces = vec![Vec3::ZERO; count];
+        let box64 = pose(&mut out.mesh.positions[first..], &mut faces, |t| corners_at(t).map(|i| world64.transform_point3(Vec3::from(positions[i as usize]).as_dvec3())), out.origin);
+        (out.bounds.lo, out.bounds.hi) = (out.bounds.lo.min(box64.lo), out.bounds.hi.max(box64.hi));
+        for (t, face) in faces.into_iter().enumerate() {
+            let corners = corners_at(t);
             let n = match &normals {
                 Some(ns) => corners.map(|i| (normal_matrix * ns[i as usize]).normalize_or(face)),
                 None => [face; 3],
@@ -267,15 +275,31 @@ fn add_mesh(out: &mut Sink, mesh: &gltf::Mesh, world64: DMat4, buffers: &[Vec<u8
             // Tangents lie in the surface: they transform like positions (w, the handedness,
             // flips with a mirroring transform). Zero marks "none" (normal maps use UVs).
             let tg = tangents.as_ref().map(|ts| corners.map(|i| tangent(ts[i as usize], world, mirrored)));
-            for p in p64 {
-                (out.bounds.lo, out.bounds.hi) = (out.bounds.lo.min(p), out.bounds.hi.max(p));
-            }
-            out.mesh.positions.push(p64.map(|p| (p - out.origin).as_vec3()));
             // Flat normals, absent UVs and tangents take no memory (see tracer::mesh).
             out.mesh.push_attributes(n, t, tg, material);
         }
     }
     Ok(())
+}
+
+/// Fills `positions` and `faces` with each triangle's corners (`world(t)`: triangle t's corners
+/// in world space, in f64) rounded to f32 about `origin`, and its unit face normal from the f64
+/// corners; returns their f64 box. In parallel, a slice of triangles at a time: the transforms
+/// are most of a frame's walk, and a box's minima and maxima are exact in any order.
+fn pose(positions: &mut [[Vec3; 3]], faces: &mut [Vec3], world: impl Fn(usize) -> [DVec3; 3] + Sync, origin: DVec3) -> Bounds64 {
+    const SLICE: usize = 4096;
+    let slice = |(k, (ps, fs)): (usize, (&mut [[Vec3; 3]], &mut [Vec3]))| {
+        let mut b = Bounds64::default();
+        for (j, (p, f)) in ps.iter_mut().zip(fs).enumerate() {
+            let p64 = world(k * SLICE + j);
+            *f = (p64[1] - p64[0]).cross(p64[2] - p64[0]).normalize_or_zero().as_vec3();
+            *p = p64.map(|c| (c - origin).as_vec3());
+            b = p64.iter().fold(b, |b, &c| Bounds64 { lo: b.lo.min(c), hi: b.hi.max(c) });
+        }
+        b
+    };
+    let union = |a: Bounds64, b: Bounds64| Bounds64 { lo: a.lo.min(b.lo), hi: a.hi.max(b.hi) };
+    positions.par_chunks_mut(SLICE).zip(faces.par_chunks_mut(SLICE)).enumerate().map(slice).reduce(Bounds64::default, union)
 }
 
 fn tangent(t: Vec4, world: Mat4, mirrored: bool) -> Vec4 {

@@ -97,3 +97,25 @@ fn the_mesh_is_sized_by_the_triangles_instanced_that_the_buffers_hold() {
     assert_eq!(count(&claims_more), 0);
     assert!(load_bytes(&claims_more, None).unwrap_err().0.contains("POSITION accessor"), "refused when read");
 }
+
+/// A large frame is posed, its face normals found and its tree made over several threads, in
+/// chunks: it must come out the same bits on one thread as on four.
+#[test]
+fn a_large_scene_loads_the_same_on_one_thread_and_on_four() {
+    // 2 × 39,998 triangles: more than one posing chunk per node, many parallel pieces each.
+    let glb = strip_glb(40_000, 2, 12);
+    let load = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| Sequence::parse(&glb, None).unwrap().scene_at(None, 0.0).unwrap())
+    };
+    let (one, four) = (load(1), load(4));
+    assert_eq!(one.mesh.len(), 2 * 39_998);
+    assert_same_scene(&one, &four);
+    assert_eq!(one.face_normals, four.face_normals);
+    assert_eq!((one.bounds_centre, one.bounds_radius), (four.bounds_centre, four.bounds_radius));
+    for k in 0..2000 {
+        let x = k as f32 * 0.2;
+        let ray = crate::tracer::ray::Ray::new(glam::Vec3::new(x, 0.5, 3.0), glam::Vec3::new(0.01, 0.001, -1.0).normalize());
+        assert_eq!(one.accel.intersect(&ray, f32::INFINITY), four.accel.intersect(&ray, f32::INFINITY), "ray {k}");
+    }
+}

@@ -12,9 +12,10 @@
 //!   makes the scene about 2¹² units across, where 1e-4 is below f32 resolution.
 use crate::tracer::ray::{MACHINE_EPSILON, Ray};
 use glam::{DVec3, Vec3, Vec3A};
-use build::{Topology, WIDE_STACK, degenerate, finite, kept, tree_scale, tree_triangles, wide_depth, wide_source, to_wide};
+use build::{Topology, WIDE_STACK, tree_scale, tree_triangles, wide_depth, wide_source, to_wide};
 use packet::{Packets, WatertightRay, for_packets, intersect_triangle};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::RayHit};
+use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Duration;
 pub use refit::WORN;
@@ -40,8 +41,8 @@ pub struct Accel {
     tree: Tree,
     /// Triangle vertices in tree space, in the tree's primitive order, four to a packet.
     tris: Packets,
-    /// Tree primitive slot → caller's triangle index.
-    prim_ids: Vec<u32>,
+    /// Tree primitive slot → caller's triangle index (shared by the frames refitted from it).
+    prim_ids: Arc<[u32]>,
     scale: f32,
     /// The tree's topology, kept by [`Accel::build_refittable`] so [`Accel::refit`] can move its
     /// boxes instead of building again; shared by every frame refitted from it.
@@ -63,14 +64,23 @@ impl Accel {
     /// The tree over every non-[degenerate](triangle_normal) triangle: those have no area
     /// f32 can resolve, and rounding in the hit test could only give them false hits.
     pub fn build(tris: &[[Vec3; 3]], kind: BvhKind) -> Accel {
-        Accel::build_with(tris, kind, false)
+        Accel::build_over(tris, &Degenerate::of_triangles(tris), kind, false)
     }
 
     /// [`Accel::build`], keeping what [`Accel::refit`] needs: for the wide tree obvhs's nodes
     /// and primitive slots (18 bytes per triangle more on the 1M-triangle field, `tessera-bench
     /// bvh`), for the binary one the tree itself.
     pub fn build_refittable(tris: &[[Vec3; 3]], kind: BvhKind) -> Accel {
-        Accel::build_with(tris, kind, true)
+        Accel::build_over(tris, &Degenerate::of_triangles(tris), kind, true)
+    }
+
+    /// [`Accel::build`] (or, `refittable`, [`Accel::build_refittable`]) given the triangles'
+    /// [`face_normals`], which tell the degenerate ones: a frame whose refit was refused has
+    /// them already, for its shading. (A build without them holds only a bit per triangle, not
+    /// the normals' 12 bytes, through its memory peak.)
+    pub fn build_with_normals(tris: &[[Vec3; 3]], normals: &[Vec3], kind: BvhKind, refittable: bool) -> Accel {
+        assert_eq!(tris.len(), normals.len(), "one face normal per triangle");
+        Accel::build_over(tris, &Degenerate::of(normals), kind, refittable)
     }
 
     /// The memory a build holds at once is most of a worker's peak on a large scene, so each
@@ -81,14 +91,20 @@ impl Accel {
     /// A refittable tree also holds the degenerate triangles with finite corners, never hit (as
     /// those that become degenerate in a refit), so that a later frame in which one is
     /// degenerate no more can still be refitted.
-    fn build_with(tris: &[[Vec3; 3]], kind: BvhKind, refittable: bool) -> Accel {
-        let keep = if refittable { finite(tris) } else { kept(tris) };
-        let hidden = if refittable { degenerate(tris) } else { Vec::new() };
+    fn build_over(tris: &[[Vec3; 3]], degenerate: &Degenerate, kind: BvhKind, refittable: bool) -> Accel {
+        // A refittable tree holds every triangle with finite corners, another the solid ones.
+        let held = |i: usize| match refittable {
+            true => tris[i].iter().all(|v| v.is_finite()),
+            false => !degenerate.contains(i),
+        };
+        let keep: Vec<u32> = (0..tris.len() as u32).filter(|&i| held(i as usize)).collect();
+        // A non-refittable tree holds no degenerate triangle to hide.
+        let hidden = if refittable { degenerate } else { &Degenerate::NONE };
         // Over every triangle held, hidden ones too: obvhs's build takes their boxes as well
         // (a refit, which gives hidden triangles empty boxes, scales by the others alone).
-        let scale = tree_scale(keep.iter().map(|&i| &tris[i as usize]));
+        let scale = tree_scale(tris, held);
         if keep.is_empty() {
-            return Accel { tree: Tree::Empty, tris: Packets::new(std::iter::empty()), prim_ids: Vec::new(), scale, refit: None, avx2: false };
+            return Accel { tree: Tree::Empty, tris: Packets::new(0, |_| [Vec3::ZERO; 3]), prim_ids: Arc::from([]), scale, refit: None, avx2: false };
         }
         let params = BvhBuildParams::medium_build();
         let binary = || Topology::Binary(obvhs::bvh2::builder::build_bvh2_from_tris(&tree_triangles(tris, &keep, scale), params, &mut Duration::default()));
@@ -113,7 +129,7 @@ impl Accel {
         };
         // Padding slots (`layout::PAD`) are never tested: a zero triangle and index fill them.
         let prim_ids: Vec<u32> = topology.slots().iter().map(|&k| if k == layout::PAD { layout::PAD } else { keep[k as usize] }).collect();
-        let packets = packets(&prim_ids, tris, scale, &hidden);
+        let packets = packets(&prim_ids, tris, scale, hidden);
         let (tree, wide) = match topology {
             Topology::Wide(mut bvh) => {
                 let nodes = node::Node::of_tree(&bvh, |s| packets.slot_box(s));
@@ -125,7 +141,7 @@ impl Accel {
             Topology::Binary(b) => (Tree::Binary(b), None),
         };
         let refit = refittable.then(|| Arc::new(refit::RefitBase { count: tris.len(), keep, wide, built_cost: tree.walk_cost() }));
-        Accel { tree, tris: packets, prim_ids, scale, refit, avx2: avx2::detected() }
+        Accel { tree, tris: packets, prim_ids: prim_ids.into(), scale, refit, avx2: avx2::detected() }
     }
 
     /// Closest hit with 0 < t < t_max.
@@ -277,15 +293,49 @@ pub fn triangle_normal(v: &[Vec3; 3]) -> Option<DVec3> {
     (height > MACHINE_EPSILON as f64 * reach && height.is_finite()).then(|| cross / cross.length())
 }
 
+/// Each triangle's unit geometric normal ([`triangle_normal`] rounded to f32), zero for a
+/// degenerate one. A frame computes them once: the tree reads from them which triangles it may
+/// hit, the scene keeps them for shading. A pure map, so the same on any number of threads.
+pub fn face_normals(tris: &[[Vec3; 3]]) -> Vec<Vec3> {
+    tris.par_iter().with_min_len(PARALLEL_GRAIN).map(|t| triangle_normal(t).map_or(Vec3::ZERO, |n| n.as_vec3())).collect()
+}
+
+/// Per-triangle work below this many items stays on one thread.
+const PARALLEL_GRAIN: usize = 4096;
+
+/// Which triangles are degenerate (a zero [`face_normals`]), a bit each: the packets are
+/// gathered in tree order, in which a read of each triangle's 12-byte normal would miss the
+/// cache as often as the triangle's own read does; the bits of a million fit in 128 KiB.
+struct Degenerate(Vec<u64>);
+
+impl Degenerate {
+    const NONE: Degenerate = Degenerate(Vec::new());
+
+    fn of(normals: &[Vec3]) -> Degenerate {
+        let word = |c: &[Vec3]| c.iter().enumerate().fold(0u64, |w, (k, n)| w | u64::from(*n == Vec3::ZERO) << k);
+        Degenerate(normals.par_chunks(64).with_min_len(64).map(word).collect())
+    }
+
+    /// [`Degenerate::of`] the triangles' normals, without keeping them.
+    fn of_triangles(tris: &[[Vec3; 3]]) -> Degenerate {
+        let word = |c: &[[Vec3; 3]]| c.iter().enumerate().fold(0u64, |w, (k, t)| w | u64::from(triangle_normal(t).is_none()) << k);
+        Degenerate(tris.par_chunks(64).with_min_len(64).map(word).collect())
+    }
+
+    fn contains(&self, i: usize) -> bool {
+        self.0.get(i / 64).is_some_and(|w| w >> (i % 64) & 1 != 0)
+    }
+}
+
 /// The tree's triangles in tree space, slot by slot (`prim_ids[k]`: the caller's triangle in
-/// slot k); a triangle `hidden` marks gets NaN corners, which fail every comparison of the
+/// slot k); a triangle `hidden` holds gets NaN corners, which fail every comparison of the
 /// triangle test, so it is never hit.
-fn packets(prim_ids: &[u32], tris: &[[Vec3; 3]], scale: f32, hidden: &[bool]) -> Packets {
-    Packets::new(prim_ids.iter().map(|&i| match i {
+fn packets(prim_ids: &[u32], tris: &[[Vec3; 3]], scale: f32, hidden: &Degenerate) -> Packets {
+    Packets::new(prim_ids.len(), |slot| match prim_ids[slot] {
         layout::PAD => [Vec3::ZERO; 3],
-        i if hidden.get(i as usize) == Some(&true) => [Vec3::NAN; 3],
+        i if hidden.contains(i as usize) => [Vec3::NAN; 3],
         i => tris[i as usize].map(|v| v * scale),
-    }))
+    })
 }
 
 /// 1/x per lane, with ±f32::MAX instead of ±∞ so that a slab test on a zero component gives

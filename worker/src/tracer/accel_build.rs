@@ -6,19 +6,10 @@ use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::ploc::PlocBuilder;
 use obvhs::{BvhBuildParams, bvh2::Bvh2, cwbvh::CwBvh, triangle::Triangle};
+use rayon::prelude::*;
 
 /// Tree space is scaled so that the scene is about 2^TARGET_EXTENT_LOG2 units across.
 const TARGET_EXTENT_LOG2: i32 = 12;
-
-/// The triangles the tree holds: the non-degenerate ones.
-pub(super) fn kept(tris: &[[Vec3; 3]]) -> Vec<u32> {
-    (0..tris.len() as u32).filter(|&i| super::triangle_normal(&tris[i as usize]).is_some()).collect()
-}
-
-/// The triangles a refittable tree holds: those with finite corners.
-pub(super) fn finite(tris: &[[Vec3; 3]]) -> Vec<u32> {
-    (0..tris.len() as u32).filter(|&i| tris[i as usize].iter().all(|v| v.is_finite())).collect()
-}
 
 /// The caller's triangles `keep`, scaled into tree space, as obvhs triangles.
 pub(super) fn tree_triangles(tris: &[[Vec3; 3]], keep: &[u32], scale: f32) -> Vec<Triangle> {
@@ -44,12 +35,6 @@ impl Topology {
             Topology::Binary(b) => &b.primitive_indices,
         }
     }
-}
-
-/// Per triangle, whether a refittable tree holds it but never hits it: degenerate (see
-/// [`super::triangle_normal`]).
-pub(super) fn degenerate(tris: &[[Vec3; 3]]) -> Vec<bool> {
-    tris.iter().map(|t| super::triangle_normal(t).is_none()).collect()
 }
 
 /// The binary tree obvhs's `build_cwbvh_from_tris` converts (the same steps, without spatial
@@ -96,13 +81,19 @@ pub(super) fn inner_children(node: &obvhs::cwbvh::node::CwBvhNode) -> impl Itera
     })
 }
 
-/// Power of two bringing the scene's extent near 2^TARGET_EXTENT_LOG2, clamped so nothing overflows.
-pub(super) fn tree_scale<'a>(tris: impl Iterator<Item = &'a [Vec3; 3]>) -> f32 {
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for v in tris.flatten() {
-        lo = lo.min(*v);
-        hi = hi.max(*v);
-    }
+/// Power of two bringing the extent of the triangles `held` near 2^TARGET_EXTENT_LOG2, clamped
+/// so nothing overflows. Their box is found in parallel: minima and maxima, exact in any order.
+pub(super) fn tree_scale(tris: &[[Vec3; 3]], held: impl Fn(usize) -> bool + Sync) -> f32 {
+    const RUN: usize = 16_384;
+    let empty = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    let run = |(r, run): (usize, &[[Vec3; 3]])| {
+        let (mut lo, mut hi) = empty;
+        for (_, t) in (r * RUN..).zip(run).filter(|(i, _)| held(*i)) {
+            (lo, hi) = (lo.min(t[0]).min(t[1]).min(t[2]), hi.max(t[0]).max(t[1]).max(t[2]));
+        }
+        (lo, hi)
+    };
+    let (lo, hi) = tris.par_chunks(RUN).enumerate().map(run).reduce(|| empty, |(l0, h0), (l1, h1)| (l0.min(l1), h0.max(h1)));
     let extent = (hi - lo).max_element();
     let reach = lo.abs().max(hi.abs()).max_element();
     if !(extent.is_finite() && extent > 0.0) {

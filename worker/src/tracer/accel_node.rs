@@ -27,6 +27,7 @@ use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::{CwBvh, node::CwBvhNode};
 use obvhs::ray::Ray;
+use rayon::prelude::*;
 
 /// A node as the walk reads it: its child boxes in tree space, one row of eight planes (two SIMD
 /// vectors, lane i of vector h is child slot 4h + i) per axis and side (row 2·axis holds the low
@@ -51,26 +52,38 @@ impl Node {
     /// Every node of the tree, its child boxes tight around the triangles below each child
     /// (`slot_box(s)`: the tree-space box of the triangle in primitive slot s, empty for one
     /// never hit). Empty child slots keep an empty box.
-    pub(super) fn of_tree(bvh: &CwBvh, slot_box: impl Fn(usize) -> Aabb) -> Vec<Node> {
+    ///
+    /// The leaf children, a box per triangle and nearly all the work, are made node by node in
+    /// parallel; the inner children then bottom-up, each the union of its node's child boxes.
+    pub(super) fn of_tree(bvh: &CwBvh, slot_box: impl Fn(usize) -> Aabb + Sync) -> Vec<Node> {
         let mut nodes: Vec<Node> = bvh.nodes.iter().map(Node::empty_with_links).collect();
-        let mut node_box = vec![Aabb::INVALID; bvh.nodes.len()];
+        let mut node_box: Vec<Aabb> =
+            nodes.par_iter_mut().zip(&bvh.nodes).with_min_len(256).map(|(node, n)| node.set_leaves(n, &slot_box)).collect();
         // Children before parents: the reverse of a depth-first order from the root.
         for &i in depth_first(bvh).iter().rev() {
             let node = &bvh.nodes[i];
-            for child in (0..8).filter(|&c| node.child_meta[c] != 0) {
-                let aabb = if node.imask & (1 << child) != 0 {
-                    node_box[node.child_node_index(child) as usize]
-                } else {
-                    let (first, count) = node.child_primitives(child);
-                    let meta = node.child_meta[child];
-                    nodes[i].leaf_bits[child / 4][child % 4] = (u32::from(meta >> 5) << (meta & 0b1_1111)) as f32;
-                    (first..first + count).map(|slot| slot_box(slot as usize)).fold(Aabb::INVALID, |a, b| a.union(&b))
-                };
+            for child in (0..8).filter(|&c| node.child_meta[c] != 0 && node.imask & (1 << c) != 0) {
+                let aabb = node_box[node.child_node_index(child) as usize];
                 nodes[i].set(child, &aabb);
                 node_box[i] = node_box[i].union(&aabb);
             }
         }
         nodes
+    }
+
+    /// The boxes and bits of the leaf children of obvhs's node `n` (this node's), and the union
+    /// of those boxes.
+    fn set_leaves(&mut self, n: &CwBvhNode, slot_box: &impl Fn(usize) -> Aabb) -> Aabb {
+        let mut leaves = Aabb::INVALID;
+        for child in (0..8).filter(|&c| n.child_meta[c] != 0 && n.imask & (1 << c) == 0) {
+            let (first, count) = n.child_primitives(child);
+            let meta = n.child_meta[child];
+            self.leaf_bits[child / 4][child % 4] = (u32::from(meta >> 5) << (meta & 0b1_1111)) as f32;
+            let aabb = (first..first + count).map(|slot| slot_box(slot as usize)).fold(Aabb::INVALID, |a, b| a.union(&b));
+            self.set(child, &aabb);
+            leaves = leaves.union(&aabb);
+        }
+        leaves
     }
 
     /// No box: every ray misses it (its near plane is at +∞ or its far one at −∞).
@@ -110,17 +123,16 @@ pub(super) fn walk_cost(nodes: &[Node]) -> f64 {
         let d = (hi - lo).as_dvec3();
         2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
     };
-    let mut work = 0.0;
-    for node in nodes {
-        for c in 0..8 {
-            let Some(b) = child_box(node, c) else { continue };
-            let tests = match node.imask & (1 << c) != 0 {
-                true => 1,
-                false => (node.leaf_bits[c / 4][c % 4] as u32).count_ones(),
-            };
-            work += area(b) * f64::from(tests);
-        }
-    }
+    let node_work = |node: &Node| -> f64 {
+        let tests = |c: usize| match node.imask & (1 << c) != 0 {
+            true => 1,
+            false => (node.leaf_bits[c / 4][c % 4] as u32).count_ones(),
+        };
+        (0..8).filter_map(|c| child_box(node, c).map(|b| area(b) * f64::from(tests(c)))).sum()
+    };
+    // Summed in fixed chunks, then the chunks in order: the same figure on any number of threads.
+    let chunks: Vec<f64> = nodes.par_chunks(1024).map(|chunk| chunk.iter().map(node_work).sum()).collect();
+    let work: f64 = chunks.iter().sum();
     let (lo, hi) = (0..8).filter_map(|c| child_box(root, c)).fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), (l, h)| (lo.min(l), hi.max(h)));
     let root_area = area((lo, hi));
     if root_area > 0.0 { work / root_area } else { 0.0 }

@@ -19,7 +19,7 @@
 //! the wronger) its walk: a hit is the closest (t, triangle index) whatever the tree. Its
 //! [`Accel::wear`] (its surface-area cost against the cost as built) tells when a frame is
 //! better served by a build: [`Accel::worn`], past [`WORN`].
-use super::build::{degenerate, tree_scale};
+use super::build::tree_scale;
 use super::{Accel, Tree};
 use glam::Vec3;
 use obvhs::{aabb::Aabb, bvh2::Bvh2, cwbvh::CwBvh};
@@ -39,17 +39,18 @@ pub(super) struct RefitBase {
 }
 
 impl RefitBase {
-    /// Per triangle of `tris`, whether it is degenerate (the tree holds it but must not hit it);
-    /// None if `tris` cannot be refitted onto this tree: another count, or a triangle the tree
-    /// left out (not finite when it was built) that is not degenerate now.
-    fn hidden(&self, tris: &[[Vec3; 3]]) -> Option<Vec<bool>> {
-        if tris.len() != self.count {
-            return None;
+    /// Whether `tris`, with their [`super::face_normals`] (zero for a degenerate triangle, which
+    /// the tree holds but must not hit), can be refitted onto this tree: not another count, and
+    /// no triangle the tree left out (not finite when it was built) solid now.
+    fn holds(&self, tris: &[[Vec3; 3]], normals: &[Vec3]) -> bool {
+        if tris.len() != self.count || normals.len() != self.count {
+            return false;
         }
-        let hidden = degenerate(tris);
+        if self.keep.len() == self.count {
+            return true;
+        }
         let mut held = self.keep.iter().peekable();
-        let left_out_now_solid = (0u32..).zip(&hidden).any(|(i, &h)| held.next_if_eq(&&i).is_none() && !h);
-        (!left_out_now_solid).then_some(hidden)
+        !(0u32..).zip(normals).any(|(i, &n)| held.next_if_eq(&&i).is_none() && n != Vec3::ZERO)
     }
 }
 
@@ -69,10 +70,16 @@ impl Accel {
     /// Hits do not depend on the tree: the closest hit is the smallest (t, triangle index)
     /// whatever the traversal order (see [`Accel::intersect_where`]).
     pub fn refit(&self, tris: &[[Vec3; 3]]) -> Option<Accel> {
-        let base = self.refit.as_ref()?;
-        let hidden = base.hidden(tris)?;
-        let scale = tree_scale(base.keep.iter().filter(|&&i| !hidden[i as usize]).map(|&i| &tris[i as usize]));
-        let packets = super::packets(&self.prim_ids, tris, scale, &hidden);
+        self.refit_with_normals(tris, &super::face_normals(tris))
+    }
+
+    /// [`Accel::refit`] given the triangles' [`super::face_normals`], which a scene computes once
+    /// for the tree and for its shading.
+    pub fn refit_with_normals(&self, tris: &[[Vec3; 3]], normals: &[Vec3]) -> Option<Accel> {
+        let base = self.refit.as_ref().filter(|b| b.holds(tris, normals))?;
+        // Every solid triangle is held (a left-out one is degenerate: `holds`).
+        let scale = tree_scale(tris, |i| normals[i] != Vec3::ZERO);
+        let packets = super::packets(&self.prim_ids, tris, scale, &super::Degenerate::of(normals));
         let tree = match (&self.tree, &base.wide) {
             (Tree::Wide(_), Some(wide)) => Tree::Wide(super::node::Node::of_tree(wide, |s| packets.slot_box(s))),
             (Tree::Binary(b), _) => {
@@ -82,7 +89,7 @@ impl Accel {
             }
             _ => return None,
         };
-        Some(Accel { tree, tris: packets, prim_ids: self.prim_ids.clone(), scale, refit: Some(Arc::clone(base)), avx2: self.avx2 })
+        Some(Accel { tree, tris: packets, prim_ids: Arc::clone(&self.prim_ids), scale, refit: Some(Arc::clone(base)), avx2: self.avx2 })
     }
 
     /// The wide tree's surface-area cost against its cost as built: 1 for a tree as built, more

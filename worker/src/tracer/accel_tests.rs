@@ -215,6 +215,31 @@ fn a_refit_onto_scrambled_triangles_is_worn_and_a_wobble_is_not() {
     assert!(Accel::build_refittable(&scrambled, BvhKind::Wide).wear() == Some(1.0));
 }
 
+/// A refit's parts run in parallel (the packets, the leaf boxes, the wear's sum in fixed
+/// chunks): the refitted tree and its wear are the same bits on one thread as on four.
+#[test]
+fn a_refit_is_the_same_on_one_thread_and_on_four() {
+    let mut rng = Rng(59);
+    let tris = soup(&mut rng, 30_000);
+    let moved: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|v| v + 0.01 * Vec3::new((v.y * 30.0).sin(), (v.z * 30.0).sin(), 0.0))).collect();
+    let refit_on = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| Accel::build_refittable(&tris, BvhKind::Wide).refit(&moved).unwrap())
+    };
+    let (one, four) = (refit_on(1), refit_on(4));
+    match (&one.tree, &four.tree) {
+        (Tree::Wide(a), Tree::Wide(b)) => assert!(a == b, "the nodes differ"),
+        _ => panic!("a wide tree was built"),
+    }
+    assert_eq!(one.wear().map(f64::to_bits), four.wear().map(f64::to_bits));
+    assert_eq!(face_normals(&moved), pool_normals(&moved));
+    assert_same_hits(&one, &four, &mut rng, 500, "one thread against four");
+}
+
+fn pool_normals(tris: &[[Vec3; 3]]) -> Vec<Vec3> {
+    rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap().install(|| face_normals(tris))
+}
+
 #[test]
 fn refit_refuses_another_triangle_set() {
     let mut rng = Rng(3);

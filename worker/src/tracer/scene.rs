@@ -2,7 +2,7 @@
 //!
 //! Built once per scene (by [`crate::scene`] from glTF, or directly in tests) and then shared
 //! read-only by every thread and every unit that renders it.
-use crate::tracer::accel::{Accel, BvhKind, triangle_normal};
+use crate::tracer::accel::{Accel, BvhKind, face_normals};
 use crate::tracer::camera::Camera;
 use crate::tracer::effects::Effects;
 use crate::tracer::light::{EmissiveTexture, Light};
@@ -70,21 +70,23 @@ impl Scene {
         let mut mesh = mesh;
         mesh.compact();
         let accel = Accel::build(&mesh.positions, kind);
-        Scene::with_accel(mesh, materials, textures.into(), cameras, punctual, accel)
+        let normals = face_normals(&mesh.positions);
+        Scene::with_accel(mesh, materials, textures.into(), cameras, punctual, (accel, normals))
     }
 
     /// Builds lights around an acceleration structure made for `mesh.positions` (e.g. by
-    /// [`Accel::refit`]).
+    /// [`Accel::refit_with_normals`]) and the [`face_normals`] it was made with.
     pub fn with_accel(
         mesh: Mesh,
         materials: Vec<Material>,
         textures: Arc<[Texture]>,
         cameras: Vec<Camera>,
         punctual: Vec<Light>,
-        accel: Accel,
+        (accel, face_normals): (Accel, Vec<Vec3>),
     ) -> Scene {
         let mut mesh = mesh;
         mesh.compact();
+        assert_eq!(face_normals.len(), mesh.len(), "one face normal per triangle");
         let mut lights = Vec::new();
         let mut tri_light = vec![NO_LIGHT; mesh.len()];
         let mut means = vec![None; textures.len()];
@@ -101,8 +103,6 @@ impl Scene {
                 }
         }
         lights.extend(punctual);
-        // A degenerate triangle's face normal is zero, a solid one's a unit vector.
-        let face_normals: Vec<Vec3> = mesh.positions.iter().map(|v| triangle_normal(v).map_or(Vec3::ZERO, |n| n.as_vec3())).collect();
         // Degenerate triangles are not geometry: they must not move the bounds either.
         let solid = mesh.positions.iter().zip(&face_normals).filter(|(_, n)| **n != Vec3::ZERO).map(|(v, _)| v);
         let (bounds_centre, bounds_radius) = bounding_sphere(solid);
