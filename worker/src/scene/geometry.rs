@@ -260,6 +260,10 @@ fn add_mesh(out: &mut Sink, mesh: &gltf::Mesh, world64: DMat4, buffers: &[Vec<u8
         let mut faces = vec![Vec3::ZERO; count];
         let box64 = pose(&mut out.mesh.positions[first..], &mut faces, |t| corners_at(t).map(|i| world64.transform_point3(Vec3::from(positions[i as usize]).as_dvec3())), out.origin);
         (out.bounds.lo, out.bounds.hi) = (out.bounds.lo.min(box64.lo), out.bounds.hi.max(box64.hi));
+        if normals.is_none() && uvs.iter().all(Option::is_none) && tangents.is_none() {
+            out.mesh.extend_flat(&faces, material);
+            continue;
+        }
         for (t, face) in faces.into_iter().enumerate() {
             let corners = corners_at(t);
             let n = match &normals {

@@ -74,6 +74,18 @@ impl Mesh {
         self.material.push(material);
     }
 
+    /// Appends the attributes of triangles with flat normals `faces`, material `material` and
+    /// neither UVs nor tangents (a scan's or a generated mesh's): what [`Mesh::push_attributes`]
+    /// does for each, at once while the mesh is in its compact forms.
+    pub fn extend_flat(&mut self, faces: &[Vec3], material: u32) {
+        if !(self.normals.is_empty() && self.uvs.is_empty() && self.tangents.is_empty()) {
+            faces.iter().for_each(|&f| self.push_attributes([f; 3], None, None, material));
+            return;
+        }
+        self.flat_normals.extend_from_slice(faces);
+        self.material.resize(self.material.len() + faces.len(), material);
+    }
+
     /// Room for `additional` more triangles in the vectors every triangle uses, so a large
     /// mesh loads without the copies (and the freed blocks) of a vector doubling.
     pub fn reserve(&mut self, additional: usize) {
@@ -138,4 +150,32 @@ fn store<T: Clone + Default>(v: &mut Vec<T>, i: usize, room: usize, value: T) {
 fn is_flat(n: &[Vec3; 3]) -> bool {
     let bits = |n: &Vec3| n.to_array().map(f32::to_bits);
     bits(&n[0]) == bits(&n[1]) && bits(&n[0]) == bits(&n[2])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`Mesh::extend_flat`] stores what a [`Mesh::push_attributes`] per triangle would, in
+    /// the compact forms and after a triangle has made the mesh store more.
+    #[test]
+    fn flat_triangles_appended_at_once_are_stored_as_one_by_one() {
+        let faces = [Vec3::X, Vec3::Y, Vec3::NEG_Z];
+        let starts: [fn(&mut Mesh); 4] = [
+            |_| {},
+            |m| m.push_attributes([Vec3::Z; 3], None, None, 0),
+            |m| m.push_attributes([Vec3::X, Vec3::Y, Vec3::Z], None, None, 0),
+            |m| m.push_attributes([Vec3::Z; 3], Some([[Vec2::ONE; 3], [Vec2::ZERO; 3]]), Some([Vec4::ONE; 3]), 0),
+        ];
+        for (k, start) in starts.iter().enumerate() {
+            let (mut at_once, mut one_by_one) = (Mesh::default(), Mesh::default());
+            start(&mut at_once);
+            start(&mut one_by_one);
+            at_once.extend_flat(&faces, 7);
+            faces.iter().for_each(|&f| one_by_one.push_attributes([f; 3], None, None, 7));
+            let read = |m: &Mesh| (0..m.material.len()).map(|i| (m.normals_of(i), m.uvs_of(i), m.tangents.get(i).copied(), m.material[i])).collect::<Vec<_>>();
+            assert_eq!(read(&at_once), read(&one_by_one), "start {k}");
+            assert_eq!((at_once.normals.len(), at_once.flat_normals.len(), at_once.uvs.len()), (one_by_one.normals.len(), one_by_one.flat_normals.len(), one_by_one.uvs.len()), "start {k}: stored forms");
+        }
+    }
 }
