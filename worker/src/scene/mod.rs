@@ -16,6 +16,7 @@
 //! External files may only be plain relative paths below the scene's own directory.
 mod accessors;
 mod budget;
+mod camera_light;
 mod corners;
 pub mod animation;
 pub mod effects;

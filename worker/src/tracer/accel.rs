@@ -10,14 +10,15 @@
 //! - its wide BVH skips boxes lying entirely within 1e-4 of the origin, an absolute distance. The
 //!   tree is therefore built in a space scaled by a power of two (exact in floating point) that
 //!   makes the scene about 2¹² units across, where 1e-4 is below f32 resolution.
-use crate::tracer::ray::{MACHINE_EPSILON, Ray};
-use glam::{DVec3, Vec3, Vec3A};
+use crate::tracer::ray::Ray;
+use glam::{Vec3, Vec3A};
 use build::{Topology, WIDE_STACK, tree_scale, tree_triangles, wide_depth, wide_source, to_wide};
 use packet::{Packets, WatertightRay, for_packets, intersect_triangle};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::RayHit};
-use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Duration;
+pub use faces::{face_normals, triangle_normal};
+use faces::Degenerate;
 pub use refit::WORN;
 pub use stats::WalkCounts;
 use stats::Tally;
@@ -279,54 +280,6 @@ impl Accel {
     }
 }
 
-/// The unit geometric normal (counter-clockwise winding), computed in f64; None for a
-/// degenerate triangle: one whose smallest height is at most half an f32 ulp of its largest
-/// coordinate (zero-area triangles, needles). f32 cannot place a point strictly inside such a
-/// triangle, and its f32 cross product may underflow to a NaN normal, so the tracer ignores it
-/// (not hit, not a light).
-pub fn triangle_normal(v: &[Vec3; 3]) -> Option<DVec3> {
-    let [a, b, c] = v.map(|p| p.as_dvec3());
-    let cross = (b - a).cross(c - a);
-    let longest = (b - a).length().max((c - b).length()).max((a - c).length());
-    let reach = a.abs().max(b.abs()).max(c.abs()).max_element();
-    let height = cross.length() / longest;
-    (height > MACHINE_EPSILON as f64 * reach && height.is_finite()).then(|| cross / cross.length())
-}
-
-/// Each triangle's unit geometric normal ([`triangle_normal`] rounded to f32), zero for a
-/// degenerate one. A frame computes them once: the tree reads from them which triangles it may
-/// hit, the scene keeps them for shading. A pure map, so the same on any number of threads.
-pub fn face_normals(tris: &[[Vec3; 3]]) -> Vec<Vec3> {
-    tris.par_iter().with_min_len(PARALLEL_GRAIN).map(|t| triangle_normal(t).map_or(Vec3::ZERO, |n| n.as_vec3())).collect()
-}
-
-/// Per-triangle work below this many items stays on one thread.
-const PARALLEL_GRAIN: usize = 4096;
-
-/// Which triangles are degenerate (a zero [`face_normals`]), a bit each: the packets are
-/// gathered in tree order, in which a read of each triangle's 12-byte normal would miss the
-/// cache as often as the triangle's own read does; the bits of a million fit in 128 KiB.
-struct Degenerate(Vec<u64>);
-
-impl Degenerate {
-    const NONE: Degenerate = Degenerate(Vec::new());
-
-    fn of(normals: &[Vec3]) -> Degenerate {
-        let word = |c: &[Vec3]| c.iter().enumerate().fold(0u64, |w, (k, n)| w | u64::from(*n == Vec3::ZERO) << k);
-        Degenerate(normals.par_chunks(64).with_min_len(64).map(word).collect())
-    }
-
-    /// [`Degenerate::of`] the triangles' normals, without keeping them.
-    fn of_triangles(tris: &[[Vec3; 3]]) -> Degenerate {
-        let word = |c: &[[Vec3; 3]]| c.iter().enumerate().fold(0u64, |w, (k, t)| w | u64::from(triangle_normal(t).is_none()) << k);
-        Degenerate(tris.par_chunks(64).with_min_len(64).map(word).collect())
-    }
-
-    fn contains(&self, i: usize) -> bool {
-        self.0.get(i / 64).is_some_and(|w| w >> (i % 64) & 1 != 0)
-    }
-}
-
 /// The tree's triangles in tree space, slot by slot (`prim_ids[k]`: the caller's triangle in
 /// slot k); a triangle `hidden` holds gets NaN corners, which fail every comparison of the
 /// triangle test, so it is never hit.
@@ -365,6 +318,8 @@ pub(crate) fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(f32, u32)> {
 mod avx2;
 #[path = "accel_build.rs"]
 mod build;
+#[path = "accel_faces.rs"]
+mod faces;
 #[path = "accel_layout.rs"]
 mod layout;
 #[path = "accel_stats.rs"]
