@@ -38,14 +38,18 @@ impl Degenerate {
     pub(super) const NONE: Degenerate = Degenerate(Vec::new());
 
     pub(super) fn of(normals: &[Vec3]) -> Degenerate {
-        let word = |c: &[Vec3]| c.iter().enumerate().fold(0u64, |w, (k, n)| w | u64::from(*n == Vec3::ZERO) << k);
-        Degenerate(normals.par_chunks(64).with_min_len(64).map(word).collect())
+        Degenerate::marking(normals, |n| *n == Vec3::ZERO)
     }
 
     /// [`Degenerate::of`] the triangles' normals, without keeping them.
     pub(super) fn of_triangles(tris: &[[Vec3; 3]]) -> Degenerate {
-        let word = |c: &[[Vec3; 3]]| c.iter().enumerate().fold(0u64, |w, (k, t)| w | u64::from(triangle_normal(t).is_none()) << k);
-        Degenerate(tris.par_chunks(64).with_min_len(64).map(word).collect())
+        Degenerate::marking(tris, |t| triangle_normal(t).is_none())
+    }
+
+    /// Bit i set where `degenerate(items[i])`; a word of 64 bits per task.
+    fn marking<T: Sync>(items: &[T], degenerate: impl Fn(&T) -> bool + Sync) -> Degenerate {
+        let word = |c: &[T]| c.iter().enumerate().fold(0u64, |w, (k, x)| w | u64::from(degenerate(x)) << k);
+        Degenerate(items.par_chunks(64).with_min_len(64).map(word).collect())
     }
 
     pub(super) fn contains(&self, i: usize) -> bool {
