@@ -82,7 +82,9 @@ impl Shared {
         match write_image(&snapshot, &path) {
             Ok(()) => {
                 self.scheduler.lock().expect("lock").release_frame(job_id, index);
-                crate::purge::return_freed_pages();
+                if self.config.purge_each_frame {
+                    crate::purge::return_freed_pages();
+                }
                 tracing::debug!(job = job_id, frame = index, "frame complete: image written, sums released");
             }
             Err(e) => tracing::error!(job = job_id, frame = index, "writing a complete frame's image failed (it is kept in memory and written when the job ends): {e:#}"),

@@ -55,8 +55,9 @@ where
     F: FnOnce(Coordinator) -> Fut,
     Fut: std::future::Future<Output = anyhow::Result<T>>,
 {
-    // The farm lives and dies with this process: nothing to resume, so no checkpoints.
-    let config = Config { checkpoint_ms: None, frame_affinity: farm.frame_affinity, ..Config::new(data.to_path_buf()) };
+    // The farm lives and dies with this process: nothing to resume, so no checkpoints; and
+    // its workers' memory is the process's (`Config::purge_each_frame`).
+    let config = Config { checkpoint_ms: None, frame_affinity: farm.frame_affinity, purge_each_frame: false, ..Config::new(data.to_path_buf()) };
     let state = AppState::new(config)?;
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let url = format!("http://{}", listener.local_addr()?);

@@ -33,6 +33,11 @@ pub struct Config {
     /// Delete ended jobs (record, checkpoints, images) this long after they ended; None keeps
     /// them until deleted by request.
     pub delete_ended_after_ms: Option<u64>,
+    /// Return an animation frame's freed sums to the system as soon as its image is written,
+    /// rather than when the job ends. False in a process that runs workers too
+    /// ([`crate::local`]): mimalloc's purge is process-wide and would take the pages those
+    /// workers keep for their next frame (`crate::purge`).
+    pub purge_each_frame: bool,
 }
 
 impl Config {
@@ -49,6 +54,7 @@ impl Config {
             frame_affinity: true,
             mix_renderers: false,
             delete_ended_after_ms: None,
+            purge_each_frame: true,
         }
     }
 }

@@ -1,6 +1,12 @@
 //! What the worker process holds in memory, as the kernel counts it: the resident set now and
 //! its high-water mark (VmRSS and VmHWM of /proc/self/status). Reported with each result, so the
 //! coordinator can say what a scene costs a worker; None where /proc is not there (not Linux).
+//!
+//! Also a hook ([`on_prepare`]) through which the process that links the worker learns what kind
+//! of frame scene it is about to prepare: the allocator is the binary's choice, not this crate's,
+//! and how long freed pages should stay resident depends on what comes next (`tessera_server::purge`).
+use crate::scene::Preparation;
+use std::sync::OnceLock;
 
 /// Resident memory of this process, in bytes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -22,6 +28,23 @@ fn parse_status(status: &str) -> Option<ProcessMemory> {
         status.lines().find_map(|l| l.strip_prefix(key)?.trim().strip_suffix("kB")?.trim().parse::<u64>().ok())
     };
     Some(ProcessMemory { rss_bytes: kib("VmRSS:")? << 10, peak_rss_bytes: kib("VmHWM:")? << 10 })
+}
+
+static PREPARE_HOOK: OnceLock<fn(Preparation)> = OnceLock::new();
+
+/// Has `hook` called whenever a worker started after this call parses a scene file or begins
+/// preparing a frame's scene, on the thread that does it, with what comes:
+/// [`Preparation::Build`] for a file (its first frame is built next), a still or an animation's
+/// first frame; [`Preparation::Refit`] for a later frame, which allocates what the frame before
+/// it allocated, in the same sizes (and builds instead when that frame's tree is worn). One hook
+/// per process (the allocator is the process's): later calls are ignored.
+pub fn on_prepare(hook: fn(Preparation)) {
+    let _ = PREPARE_HOOK.set(hook);
+}
+
+/// The process's hook, if one is set; each worker takes it when it starts.
+pub(crate) fn prepare_hook() -> Option<fn(Preparation)> {
+    PREPARE_HOOK.get().copied()
 }
 
 #[cfg(test)]

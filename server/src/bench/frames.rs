@@ -10,12 +10,28 @@ use std::time::Instant;
 use tessera_proto::{FrameRange, Job, JobRequest, JobState};
 
 /// What one run measured.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub struct FramesRun {
     pub seconds: f64,
     pub builds: u32,
     pub refits: u32,
     pub prepare_ms: f64,
+    /// Of each frame whose preparations were all refits, milliseconds per refit (a frame may be
+    /// prepared by several workers).
+    pub refit_ms: Vec<f64>,
+    /// The largest peak resident memory the workers reported (the process's: the coordinator's
+    /// and every local worker's), if they did.
+    pub peak_rss_bytes: Option<u64>,
+}
+
+impl FramesRun {
+    /// The median of `refit_ms`, if any.
+    fn median_refit_ms(&self) -> Option<f64> {
+        let mut ms = self.refit_ms.clone();
+        ms.sort_by(f64::total_cmp);
+        let n = ms.len();
+        (n > 0).then(|| if n % 2 == 1 { ms[n / 2] } else { (ms[n / 2 - 1] + ms[n / 2]) / 2.0 })
+    }
 }
 
 #[derive(Clone, Debug, clap::Args)]
@@ -45,6 +61,7 @@ pub struct FramesBench {
 }
 
 pub fn run(b: &FramesBench) -> anyhow::Result<()> {
+    crate::purge::for_scene_builders(); // as `tessera render` does
     let rt = tokio::runtime::Runtime::new()?;
     let (mut on, mut off) = (FramesRun { seconds: f64::INFINITY, ..FramesRun::default() }, FramesRun { seconds: f64::INFINITY, ..FramesRun::default() });
     for _ in 0..b.repeats.max(1) {
@@ -57,12 +74,14 @@ pub fn run(b: &FramesBench) -> anyhow::Result<()> {
         }
     }
     crate::say!(
-        "{} frames of {} at {}×{}, {} spp, {} local workers ({} threads each), fastest of {}:",
-        b.frames, b.scene, b.size, b.size, b.spp, b.workers, b.threads, b.repeats
+        "{} frames of {} at {}×{}, {} spp, {} local workers ({} thread{} each), fastest of {}:",
+        b.frames, b.scene, b.size, b.size, b.spp, b.workers, b.threads, if b.threads == 1 { "" } else { "s" }, b.repeats
     );
-    for (name, r) in [("affinity on ", on), ("affinity off", off)] {
+    for (name, r) in [("affinity on ", &on), ("affinity off", &off)] {
+        let median = r.median_refit_ms().map_or(String::new(), |m| format!(" (a refit's median {m:.1} ms)"));
+        let peak = r.peak_rss_bytes.map_or(String::new(), |b| format!("; peak resident {} MiB", b >> 20));
         crate::say!(
-            "  {name}: {:.2} s ({:.3} s per frame); scene preparations: {} builds + {} refits = {:.1} ms",
+            "  {name}: {:.2} s ({:.3} s per frame); scene preparations: {} builds + {} refits = {:.1} ms{median}{peak}",
             r.seconds,
             r.seconds / b.frames as f64,
             r.builds,
@@ -103,5 +122,7 @@ async fn once(b: &FramesBench, affinity: bool) -> anyhow::Result<FramesRun> {
         builds: job.frames.iter().map(|f| f.builds).sum(),
         refits: job.frames.iter().map(|f| f.refits).sum(),
         prepare_ms: job.frames.iter().map(|f| f.prepare_ms).sum(),
+        refit_ms: job.frames.iter().filter(|f| f.builds == 0 && f.refits > 0).map(|f| f.prepare_ms / f64::from(f.refits)).collect(),
+        peak_rss_bytes: job.frames.iter().filter_map(|f| f.worker_peak_rss_bytes).max(),
     })
 }

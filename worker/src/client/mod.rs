@@ -63,6 +63,7 @@ pub use convert::{render_settings, to_wire};
 
 use anyhow::{Context, anyhow};
 use api::{Api, LeaseAnswer};
+use crate::scene::Preparation;
 use cache::SceneCache;
 use prefetch::Prefetch;
 use queue::Queued;
@@ -165,6 +166,8 @@ struct Worker {
     scenes: Arc<Mutex<SceneCache>>,
     /// Nanoseconds the pool spent rendering units (canceled ones included; see `busy`).
     busy_ns: Arc<AtomicU64>,
+    /// Told what each frame's scene is about to be (`memory::on_prepare`, the process's).
+    prepare_hook: Option<fn(Preparation)>,
 }
 
 impl Worker {
@@ -181,6 +184,7 @@ impl Worker {
             pool: Arc::new(pool),
             scenes: Arc::new(Mutex::new(SceneCache::default())),
             busy_ns: Arc::new(AtomicU64::new(0)),
+            prepare_hook: crate::memory::prepare_hook(),
         })
     }
 

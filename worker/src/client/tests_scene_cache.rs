@@ -3,6 +3,8 @@
 //! from then on), and later leases find that scene without the file.
 use super::*;
 use crate::client::prepare::How;
+use crate::scene::Preparation;
+use std::sync::Mutex;
 
 fn lease(id: &str, scene_id: &str, frame: u32) -> Lease {
     let Step::Lease(mut l) = small(id, 0, [0, 2]) else { unreachable!() };
@@ -41,4 +43,29 @@ async fn a_still_files_buffers_are_dropped_once_its_scene_is_made() {
     let (_, prepared) = worker.frame_scene(&lease("f", SCENE_ID, 0)).await.unwrap();
     assert_eq!(prepared.how, How::Build);
     assert_eq!(mock.log().scene_downloads, 3);
+}
+
+static HEARD: Mutex<Vec<Preparation>> = Mutex::new(Vec::new());
+
+fn hear(what: Preparation) {
+    HEARD.lock().unwrap().push(what);
+}
+
+/// The process's allocator hook (`memory::on_prepare`) hears of a build before a file is parsed
+/// and before a still or a first frame is built, of a refit before a later frame, and nothing
+/// for a frame already made.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_prepare_hook_hears_builds_and_refits_before_they_start() {
+    let mock = Mock::new(3000, vec![]);
+    let base = start(&mock).await;
+    let mut worker = Worker::new(&config(&base)).unwrap();
+    worker.prepare_hook = Some(hear);
+    let mut heard = Vec::new();
+    for (id, scene, frame, how) in [("a", ANIMATED_ID, 0, How::Build), ("b", ANIMATED_ID, 2, How::Refit), ("c", ANIMATED_ID, 2, How::Cached), ("d", SCENE_ID, 0, How::Build)] {
+        let (_, prepared) = worker.frame_scene(&lease(id, scene, frame)).await.unwrap();
+        assert_eq!(prepared.how, how);
+        heard.push(std::mem::take(&mut *HEARD.lock().unwrap()));
+    }
+    use Preparation::{Build, Refit};
+    assert_eq!(heard, [vec![Build, Build], vec![Refit], vec![], vec![Build, Build]]);
 }
