@@ -11,15 +11,8 @@
 set -euo pipefail
 bin=$1 mode=$2 n=$3 size=$4
 w=${size%x*} h=${size#*x}
-data=$(mktemp -d)
-port=$((20000 + RANDOM % 20000))
-url=http://127.0.0.1:$port
-"$bin" serve --listen 127.0.0.1:$port --data "$data/coordinator" >"$data/serve.log" 2>&1 &
-srv=$!
-trap 'kill $srv $wrk 2>/dev/null; wait 2>/dev/null; rm -rf "$data"' EXIT
-until "$bin" healthcheck --url "$url/healthz" >/dev/null 2>&1; do sleep 0.1; done
-"$bin" work --coordinator "$url" >"$data/work.log" 2>&1 &
-wrk=$!
+. "$(dirname "$0")/farm.sh"
+start_farm "$bin"
 memory() { awk '/VmRSS|VmHWM/ { printf "%s %5d MiB   ", $1, $2 / 1024 }' "/proc/$srv/status"; }
 echo "coordinator after start:  $(memory)"
 case $mode in

@@ -13,16 +13,8 @@
 set -euo pipefail
 bin=$1 scene=$2 n=$3 size=${4:-32x32} threads=${5:-0}
 w=${size%x*} h=${size#*x}
-data=$(mktemp -d)
-port=$((20000 + RANDOM % 20000))
-url=http://127.0.0.1:$port
-"$bin" serve --listen 127.0.0.1:$port --data "$data/coordinator" >"$data/serve.log" 2>&1 &
-srv=$!
-wrk=
-trap 'kill $srv $wrk 2>/dev/null; wait 2>/dev/null; rm -rf "$data"' EXIT
-until "$bin" healthcheck --url "$url/healthz" >/dev/null 2>&1; do sleep 0.1; done
-"$bin" work --coordinator "$url" --threads "$threads" >"$data/work.log" 2>&1 &
-wrk=$!
+. "$(dirname "$0")/farm.sh"
+start_farm "$bin" --threads "$threads"
 start=$(date +%s.%N)
 "$bin" submit "$scene" --server "$url" --spp 1 --width "$w" --height "$h" --tile-size 64 --frames "0..$((n - 1))" --wait >/dev/null
 end=$(date +%s.%N)
