@@ -24,16 +24,6 @@ pub struct FramesRun {
     pub peak_rss_bytes: Option<u64>,
 }
 
-impl FramesRun {
-    /// The median of `refit_ms`, if any.
-    fn median_refit_ms(&self) -> Option<f64> {
-        let mut ms = self.refit_ms.clone();
-        ms.sort_by(f64::total_cmp);
-        let n = ms.len();
-        (n > 0).then(|| if n % 2 == 1 { ms[n / 2] } else { (ms[n / 2 - 1] + ms[n / 2]) / 2.0 })
-    }
-}
-
 #[derive(Clone, Debug, clap::Args)]
 pub struct FramesBench {
     /// An animated bundled scene or a .gltf/.glb file.
@@ -78,7 +68,7 @@ pub fn run(b: &FramesBench) -> anyhow::Result<()> {
         b.frames, b.scene, b.size, b.size, b.spp, b.workers, b.threads, if b.threads == 1 { "" } else { "s" }, b.repeats
     );
     for (name, r) in [("affinity on ", &on), ("affinity off", &off)] {
-        let median = r.median_refit_ms().map_or(String::new(), |m| format!(" (a refit's median {m:.1} ms)"));
+        let median = if r.refit_ms.is_empty() { String::new() } else { format!(" (a refit's median {:.1} ms)", super::median(&r.refit_ms)) };
         let peak = r.peak_rss_bytes.map_or(String::new(), |b| format!("; peak resident {} MiB", b >> 20));
         crate::say!(
             "  {name}: {:.2} s ({:.3} s per frame); scene preparations: {} builds + {} refits = {:.1} ms{median}{peak}",

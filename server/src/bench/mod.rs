@@ -22,6 +22,17 @@ macro_rules! say {
     ($($arg:tt)*) => { $crate::bench::say_line(format_args!($($arg)*)) };
 }
 
+/// The median of `v` (the mean of the middle two for an even count); NaN for none.
+pub(crate) fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    match s.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => s[n / 2],
+        n => (s[n / 2 - 1] + s[n / 2]) / 2.0,
+    }
+}
+
 #[doc(hidden)]
 pub fn say_line(line: std::fmt::Arguments) {
     use std::io::Write;

@@ -13,6 +13,7 @@
 //! the coordinator's clock minus the time the worker's pool spent rendering, its report's
 //! `busy`), and each thread's CPU time (the render threads against all the others).
 use super::cpu::{cpu_seconds, cpu_since, threads_cpu};
+use super::median;
 use crate::bundled;
 use crate::local::{LocalFarm, with_farm_reports};
 use std::sync::Arc;
@@ -189,15 +190,6 @@ fn min(v: &[f64]) -> f64 {
     v.iter().copied().fold(f64::INFINITY, f64::min)
 }
 
-fn median(v: &[f64]) -> f64 {
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    match s.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => s[n / 2],
-        n => (s[n / 2 - 1] + s[n / 2]) / 2.0,
-    }
-}
 
 /// The settings both paths render with: a square frame, `mis` + Sobol, seed 0.
 pub fn settings(size: u32) -> anyhow::Result<RenderSettings> {
