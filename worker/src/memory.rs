@@ -42,9 +42,9 @@ pub fn on_prepare(hook: fn(Preparation)) {
     let _ = PREPARE_HOOK.set(hook);
 }
 
-/// The process's hook, if one is set; each worker takes it when it starts.
-pub(crate) fn prepare_hook() -> Option<fn(Preparation)> {
-    PREPARE_HOOK.get().copied()
+/// The process's hook, or one that does nothing; each worker takes it when it starts.
+pub(crate) fn prepare_hook() -> fn(Preparation) {
+    PREPARE_HOOK.get().copied().unwrap_or(|_| {})
 }
 
 #[cfg(test)]

@@ -190,7 +190,6 @@ fn min(v: &[f64]) -> f64 {
     v.iter().copied().fold(f64::INFINITY, f64::min)
 }
 
-
 /// The settings both paths render with: a square frame, `mis` + Sobol, seed 0.
 pub fn settings(size: u32) -> anyhow::Result<RenderSettings> {
     let params = tessera_proto::RenderParams {

@@ -167,7 +167,7 @@ struct Worker {
     /// Nanoseconds the pool spent rendering units (canceled ones included; see `busy`).
     busy_ns: Arc<AtomicU64>,
     /// Told what each frame's scene is about to be (`memory::on_prepare`, the process's).
-    prepare_hook: Option<fn(Preparation)>,
+    prepare_hook: fn(Preparation),
 }
 
 impl Worker {

@@ -89,9 +89,7 @@ impl Worker {
         // The cache is filled by the building thread itself, so a frame still lands in it when
         // the lease that wanted it is lost meanwhile.
         tokio::task::spawn_blocking(move || {
-            if let Some(hook) = hook {
-                hook(if previous.is_some() { Preparation::Refit } else { Preparation::Build });
-            }
+            hook(if previous.is_some() { Preparation::Refit } else { Preparation::Build });
             let started = Instant::now();
             let made = pool.install(|| match &previous {
                 Some(p) => sequence.scene_after(p, animation, time_s),
@@ -153,9 +151,7 @@ impl Worker {
         let bytes = self.download(id).await?;
         let (pool, cache, id, hook) = (self.pool.clone(), self.scenes.clone(), id.to_owned(), self.prepare_hook);
         tokio::task::spawn_blocking(move || {
-            if let Some(hook) = hook {
-                hook(Preparation::Build); // a file parsed is followed by its first build
-            }
+            hook(Preparation::Build); // a file parsed is followed by its first build
             let started = Instant::now();
             let size = bytes.len();
             let parsed = pool.install(|| Sequence::parse_owned(bytes, None, crate::scene::DEFAULT_MAX_TRIANGLES));

@@ -59,7 +59,7 @@ async fn the_prepare_hook_hears_builds_and_refits_before_they_start() {
     let mock = Mock::new(3000, vec![]);
     let base = start(&mock).await;
     let mut worker = Worker::new(&config(&base)).unwrap();
-    worker.prepare_hook = Some(hear);
+    worker.prepare_hook = hear;
     let mut heard = Vec::new();
     for (id, scene, frame, how) in [("a", ANIMATED_ID, 0, How::Build), ("b", ANIMATED_ID, 2, How::Refit), ("c", ANIMATED_ID, 2, How::Cached), ("d", SCENE_ID, 0, How::Build)] {
         let (_, prepared) = worker.frame_scene(&lease(id, scene, frame)).await.unwrap();
