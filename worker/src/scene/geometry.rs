@@ -8,6 +8,7 @@ use crate::tracer::camera::Camera;
 use crate::tracer::light::Light;
 use crate::tracer::scene::Mesh;
 use std::borrow::Cow;
+use std::mem::MaybeUninit;
 use glam::{DMat4, DVec3, Mat3, Mat4, Vec2, Vec3, Vec4};
 use super::budget::{self, TriangleBudget};
 use rayon::prelude::*;
@@ -171,7 +172,7 @@ fn add_mesh(out: &mut Sink, mesh: &gltf::Mesh, world64: DMat4, buffers: &[Vec<u8
         if positions.is_empty() {
             return Err(SceneError::new(at("POSITION has no vertices")));
         }
-        if let Some(k) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        if let Some(k) = positions.par_iter().with_min_len(SLICE).position_first(|p| !p.iter().all(|c| c.is_finite())) {
             return Err(SceneError::new(at(&format!("POSITION {k} is not finite"))));
         }
         let normals: Option<Vec<Vec3>> = reader.read_normals().map(|n| n.map(Vec3::from).collect());
@@ -199,15 +200,17 @@ fn add_mesh(out: &mut Sink, mesh: &gltf::Mesh, world64: DMat4, buffers: &[Vec<u8
             let [a, b, c] = corners_of(t);
             if mirrored { [a, c, b] } else { [a, b, c] }
         };
-        let first = out.mesh.positions.len();
-        out.mesh.positions.resize(first + count, [Vec3::ZERO; 3]);
-        let mut faces = vec![Vec3::ZERO; count];
-        let box64 = pose(&mut out.mesh.positions[first..], &mut faces, |t| corners_at(t).map(|i| world64.transform_point3(Vec3::from(positions[i as usize]).as_dvec3())), out.origin);
-        (out.bounds.lo, out.bounds.hi) = (out.bounds.lo.min(box64.lo), out.bounds.hi.max(box64.hi));
+        let world_corners = |t: usize| corners_at(t).map(|i| world64.transform_point3(Vec3::from(positions[i as usize]).as_dvec3()));
+        let origin = out.origin;
+        let posed_into = |positions: &mut Vec<[Vec3; 3]>, faces: &mut Vec<Vec3>| pose(positions, faces, count, world_corners, origin);
         if normals.is_none() && uvs.iter().all(Option::is_none) && tangents.is_none() {
-            out.mesh.extend_flat(&faces, material);
+            let box64 = out.mesh.extend_flat(count, material, posed_into);
+            (out.bounds.lo, out.bounds.hi) = (out.bounds.lo.min(box64.lo), out.bounds.hi.max(box64.hi));
             continue;
         }
+        let mut faces = Vec::new();
+        let box64 = posed_into(&mut out.mesh.positions, &mut faces);
+        (out.bounds.lo, out.bounds.hi) = (out.bounds.lo.min(box64.lo), out.bounds.hi.max(box64.hi));
         for (t, face) in faces.into_iter().enumerate() {
             let corners = corners_at(t);
             let n = match &normals {
@@ -230,25 +233,41 @@ fn add_mesh(out: &mut Sink, mesh: &gltf::Mesh, world64: DMat4, buffers: &[Vec<u8
     Ok(())
 }
 
-/// Fills `positions` and `faces` with each triangle's corners (`world(t)`: triangle t's corners
-/// in world space, in f64) rounded to f32 about `origin`, and its unit face normal from the f64
-/// corners; returns their f64 box. In parallel, a slice of triangles at a time: the transforms
-/// are most of a frame's walk, and a box's minima and maxima are exact in any order.
-fn pose(positions: &mut [[Vec3; 3]], faces: &mut [Vec3], world: impl Fn(usize) -> [DVec3; 3] + Sync, origin: DVec3) -> Bounds64 {
-    const SLICE: usize = 4096;
-    let slice = |(k, (ps, fs)): (usize, (&mut [[Vec3; 3]], &mut [Vec3]))| {
+/// Appends `count` triangles to `positions` and `faces`: each one's corners (`world(t)`:
+/// triangle t's corners in world space, in f64) rounded to f32 about `origin`, and its unit
+/// face normal from the f64 corners; returns their f64 box. In parallel, a slice of triangles
+/// at a time: the transforms are most of a frame's walk, and a box's minima and maxima are
+/// exact in any order. Written straight into the vectors' spare room: filling it with zeros
+/// first would be two more passes over a frame's 48 MB.
+fn pose(positions: &mut Vec<[Vec3; 3]>, faces: &mut Vec<Vec3>, count: usize, world: impl Fn(usize) -> [DVec3; 3] + Sync, origin: DVec3) -> Bounds64 {
+    fn room<T>(v: &mut Vec<T>, count: usize) -> &mut [MaybeUninit<T>] {
+        v.reserve(count);
+        &mut v.spare_capacity_mut()[..count]
+    }
+    let slice = |k: usize, ps: &mut [MaybeUninit<[Vec3; 3]>], fs: &mut [MaybeUninit<Vec3>]| {
         let mut b = Bounds64::default();
         for (j, (p, f)) in ps.iter_mut().zip(fs).enumerate() {
             let p64 = world(k * SLICE + j);
-            *f = (p64[1] - p64[0]).cross(p64[2] - p64[0]).normalize_or_zero().as_vec3();
-            *p = p64.map(|c| (c - origin).as_vec3());
+            f.write((p64[1] - p64[0]).cross(p64[2] - p64[0]).normalize_or_zero().as_vec3());
+            p.write(p64.map(|c| (c - origin).as_vec3()));
             b = p64.iter().fold(b, |b, &c| Bounds64 { lo: b.lo.min(c), hi: b.hi.max(c) });
         }
         b
     };
     let union = |a: Bounds64, b: Bounds64| Bounds64 { lo: a.lo.min(b.lo), hi: a.hi.max(b.hi) };
-    positions.par_chunks_mut(SLICE).zip(faces.par_chunks_mut(SLICE)).enumerate().map(slice).reduce(Bounds64::default, union)
+    let (ps, fs) = (room(positions, count), room(faces, count));
+    let bounds = ps.par_chunks_mut(SLICE).zip(fs.par_chunks_mut(SLICE)).enumerate().map(|(k, (ps, fs))| slice(k, ps, fs)).reduce(Bounds64::default, union);
+    // SAFETY: the chunks cover both rooms, and each slot of a chunk was written above; a panic
+    // in `world` would have unwound before the lengths grow.
+    unsafe {
+        positions.set_len(positions.len() + count);
+        faces.set_len(faces.len() + count);
+    }
+    bounds
 }
+
+/// Triangles per task of the parallel passes over a mesh.
+const SLICE: usize = 4096;
 
 fn tangent(t: Vec4, world: Mat4, mirrored: bool) -> Vec4 {
     let xyz = world.transform_vector3(t.truncate()).normalize_or_zero();

@@ -31,8 +31,7 @@ pub use animation::AnimationInfo;
 pub use sequence::Sequence;
 
 use crate::tracer::Scene;
-use crate::tracer::accel::{Accel, BvhKind, face_normals};
-use glam::Vec3;
+use crate::tracer::accel::{Accel, BvhKind, Faces};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -90,8 +89,8 @@ impl Parsed {
             false => Accel::build(&self.mesh.positions, BvhKind::Wide),
         };
         // After the build, whose peak they would raise by 12 bytes a triangle.
-        let normals = face_normals(&self.mesh.positions);
-        self.with_accel(accel, normals)
+        let faces = Faces::of(&self.mesh.positions);
+        self.with_accel(accel, faces)
     }
 
     /// The scene, its BVH refitted from `previous` (another frame of the same sequence) when
@@ -101,18 +100,18 @@ impl Parsed {
     pub fn build_from(mut self, previous: &Scene) -> (Scene, Preparation) {
         self.mesh.compact();
         // Once per frame: the refit, a build if it is refused, and the scene's shading read them.
-        let normals = face_normals(&self.mesh.positions);
-        match previous.accel.refit_with_normals(&self.mesh.positions, &normals) {
-            Some(accel) if !accel.worn() => (self.with_accel(accel, normals), Preparation::Refit),
+        let faces = Faces::of(&self.mesh.positions);
+        match previous.accel.refit_with_faces(&self.mesh.positions, &faces) {
+            Some(accel) if !accel.worn() => (self.with_accel(accel, faces), Preparation::Refit),
             _ => {
-                let accel = Accel::build_with_normals(&self.mesh.positions, &normals, BvhKind::Wide, self.refittable);
-                (self.with_accel(accel, normals), Preparation::Build)
+                let accel = Accel::build_with_normals(&self.mesh.positions, &faces.normals, BvhKind::Wide, self.refittable);
+                (self.with_accel(accel, faces), Preparation::Build)
             }
         }
     }
 
-    fn with_accel(self, accel: Accel, normals: Vec<Vec3>) -> Scene {
-        Scene::with_accel(self.mesh, self.materials, self.textures, self.cameras, self.lights, (accel, normals))
+    fn with_accel(self, accel: Accel, faces: Faces) -> Scene {
+        Scene::with_accel(self.mesh, self.materials, self.textures, self.cameras, self.lights, (accel, faces))
     }
 
     pub fn triangles(&self) -> usize {

@@ -94,6 +94,11 @@ pub(super) fn tree_scale(tris: &[[Vec3; 3]], held: impl Fn(usize) -> bool + Sync
         (lo, hi)
     };
     let (lo, hi) = tris.par_chunks(RUN).enumerate().map(run).reduce(|| empty, |(l0, h0), (l1, h1)| (l0.min(l1), h0.max(h1)));
+    scale_for_box(lo, hi)
+}
+
+/// [`tree_scale`] of triangles whose corners span the box from `lo` to `hi` (empty: lo > hi).
+pub(super) fn scale_for_box(lo: Vec3, hi: Vec3) -> f32 {
     let extent = (hi - lo).max_element();
     let reach = lo.abs().max(hi.abs()).max_element();
     if !(extent.is_finite() && extent > 0.0) {

@@ -19,7 +19,8 @@
 //! the wronger) its walk: a hit is the closest (t, triangle index) whatever the tree. Its
 //! [`Accel::wear`] (its surface-area cost against the cost as built) tells when a frame is
 //! better served by a build: [`Accel::worn`], past [`WORN`].
-use super::build::tree_scale;
+use super::Faces;
+use super::build::scale_for_box;
 use super::{Accel, Tree};
 use glam::Vec3;
 use obvhs::{aabb::Aabb, bvh2::Bvh2, cwbvh::CwBvh};
@@ -70,15 +71,17 @@ impl Accel {
     /// Hits do not depend on the tree: the closest hit is the smallest (t, triangle index)
     /// whatever the traversal order (see [`Accel::intersect_where`]).
     pub fn refit(&self, tris: &[[Vec3; 3]]) -> Option<Accel> {
-        self.refit_with_normals(tris, &super::face_normals(tris))
+        self.refit_with_faces(tris, &Faces::of(tris))
     }
 
-    /// [`Accel::refit`] given the triangles' [`super::face_normals`], which a scene computes once
-    /// for the tree and for its shading.
-    pub fn refit_with_normals(&self, tris: &[[Vec3; 3]], normals: &[Vec3]) -> Option<Accel> {
+    /// [`Accel::refit`] given the triangles' [`Faces`], which a scene computes once for the
+    /// tree and for its shading.
+    pub fn refit_with_faces(&self, tris: &[[Vec3; 3]], faces: &Faces) -> Option<Accel> {
+        let normals = &faces.normals;
         let base = self.refit.as_ref().filter(|b| b.holds(tris, normals))?;
-        // Every solid triangle is held (a left-out one is degenerate: `holds`).
-        let scale = tree_scale(tris, |i| normals[i] != Vec3::ZERO);
+        // Every solid triangle is held (a left-out one is degenerate: `holds`), so the tree's
+        // scale is that of the solid triangles' box.
+        let scale = faces.solid_box.map_or(1.0, |(lo, hi)| scale_for_box(lo, hi));
         let packets = super::packets(&self.prim_ids, tris, scale, &super::Degenerate::of(normals));
         let tree = match (&self.tree, &base.wide) {
             (Tree::Wide(_), Some(wide)) => Tree::Wide(super::node::Node::of_tree(wide, |s| packets.slot_box(s))),

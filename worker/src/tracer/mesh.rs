@@ -74,16 +74,21 @@ impl Mesh {
         self.material.push(material);
     }
 
-    /// Appends the attributes of triangles with flat normals `faces`, material `material` and
-    /// neither UVs nor tangents (a scan's or a generated mesh's): what [`Mesh::push_attributes`]
-    /// does for each, at once while the mesh is in its compact forms.
-    pub fn extend_flat(&mut self, faces: &[Vec3], material: u32) {
-        if !(self.normals.is_empty() && self.uvs.is_empty() && self.tangents.is_empty()) {
-            faces.iter().for_each(|&f| self.push_attributes([f; 3], None, None, material));
-            return;
+    /// Appends `count` triangles of material `material` with flat normals and neither UVs nor
+    /// tangents (a scan's or a generated mesh's): `pose` appends their positions and face
+    /// normals, straight into the mesh's own vectors while it is in its compact forms (no copy
+    /// of a frame's million normals), else into a scratch vector stored as
+    /// [`Mesh::push_attributes`] would. Returns what `pose` returns.
+    pub fn extend_flat<R>(&mut self, count: usize, material: u32, pose: impl FnOnce(&mut Vec<[Vec3; 3]>, &mut Vec<Vec3>) -> R) -> R {
+        if self.normals.is_empty() && self.uvs.is_empty() && self.tangents.is_empty() {
+            let posed = pose(&mut self.positions, &mut self.flat_normals);
+            self.material.resize(self.material.len() + count, material);
+            return posed;
         }
-        self.flat_normals.extend_from_slice(faces);
-        self.material.resize(self.material.len() + faces.len(), material);
+        let mut faces = Vec::with_capacity(count);
+        let posed = pose(&mut self.positions, &mut faces);
+        faces.into_iter().for_each(|f| self.push_attributes([f; 3], None, None, material));
+        posed
     }
 
     /// Room for `additional` more triangles in the vectors every triangle uses, so a large
@@ -171,7 +176,7 @@ mod tests {
             let (mut at_once, mut one_by_one) = (Mesh::default(), Mesh::default());
             start(&mut at_once);
             start(&mut one_by_one);
-            at_once.extend_flat(&faces, 7);
+            at_once.extend_flat(faces.len(), 7, |_, normals| normals.extend_from_slice(&faces));
             faces.iter().for_each(|&f| one_by_one.push_attributes([f; 3], None, None, 7));
             let read = |m: &Mesh| (0..m.material.len()).map(|i| (m.normals_of(i), m.uvs_of(i), m.tangents.get(i).copied(), m.material[i])).collect::<Vec<_>>();
             assert_eq!(read(&at_once), read(&one_by_one), "start {k}");

@@ -2,13 +2,14 @@
 //!
 //! Built once per scene (by [`crate::scene`] from glTF, or directly in tests) and then shared
 //! read-only by every thread and every unit that renders it.
-use crate::tracer::accel::{Accel, BvhKind, face_normals};
+use crate::tracer::accel::{Accel, BvhKind, Faces, PARALLEL_GRAIN};
 use crate::tracer::camera::Camera;
 use crate::tracer::effects::Effects;
 use crate::tracer::light::{EmissiveTexture, Light};
 use crate::tracer::material::Material;
 use crate::tracer::texture::Texture;
 use glam::Vec3;
+use rayon::prelude::*;
 pub use crate::tracer::mesh::Mesh;
 use std::sync::Arc;
 
@@ -70,42 +71,27 @@ impl Scene {
         let mut mesh = mesh;
         mesh.compact();
         let accel = Accel::build(&mesh.positions, kind);
-        let normals = face_normals(&mesh.positions);
-        Scene::with_accel(mesh, materials, textures.into(), cameras, punctual, (accel, normals))
+        let faces = Faces::of(&mesh.positions);
+        Scene::with_accel(mesh, materials, textures.into(), cameras, punctual, (accel, faces))
     }
 
     /// Builds lights around an acceleration structure made for `mesh.positions` (e.g. by
-    /// [`Accel::refit_with_normals`]) and the [`face_normals`] it was made with.
+    /// [`Accel::refit_with_faces`]) and the [`Faces`] it was made with.
     pub fn with_accel(
         mesh: Mesh,
         materials: Vec<Material>,
         textures: Arc<[Texture]>,
         cameras: Vec<Camera>,
         punctual: Vec<Light>,
-        (accel, face_normals): (Accel, Vec<Vec3>),
+        (accel, faces): (Accel, Faces),
     ) -> Scene {
         let mut mesh = mesh;
         mesh.compact();
+        let Faces { normals: face_normals, solid_box } = faces;
         assert_eq!(face_normals.len(), mesh.len(), "one face normal per triangle");
-        let mut lights = Vec::new();
-        let mut tri_light = vec![NO_LIGHT; mesh.len()];
-        let mut means = vec![None; textures.len()];
-        for (i, tri) in mesh.positions.iter().enumerate() {
-            let m = &materials[mesh.material[i] as usize];
-            if m.is_emissive()
-                && let Some(mut l) = Light::triangle(i as u32, tri, m.emission, m.double_sided) {
-                    if let Some(t) = m.emissive_texture {
-                        let mean = *means[t.texture as usize].get_or_insert_with(|| textures[t.texture as usize].mean_rgb());
-                        l = l.with_texture(EmissiveTexture { texture: t, uvs: mesh.uvs_of(i), mean });
-                    }
-                    tri_light[i] = lights.len() as u32;
-                    lights.push(l);
-                }
-        }
+        let (mut lights, tri_light) = area_lights(&mesh, &materials, &textures);
         lights.extend(punctual);
-        // Degenerate triangles are not geometry: they must not move the bounds either.
-        let solid = mesh.positions.iter().zip(&face_normals).filter(|(_, n)| **n != Vec3::ZERO).map(|(v, _)| v);
-        let (bounds_centre, bounds_radius) = bounding_sphere(solid);
+        let (bounds_centre, bounds_radius) = bounding_sphere(solid_box);
         let mut used = vec![false; materials.len()];
         mesh.material.iter().for_each(|&m| used[m as usize] = true);
         let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
@@ -145,17 +131,36 @@ impl Scene {
     }
 }
 
-fn bounding_sphere<'a>(tris: impl Iterator<Item = &'a [Vec3; 3]>) -> (Vec3, f32) {
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    let mut empty = true;
-    for v in tris.flatten() {
-        lo = lo.min(*v);
-        hi = hi.max(*v);
-        empty = false;
+/// One light per emissive triangle of non-zero area, in triangle order, and each triangle's
+/// index among them (`NO_LIGHT` if none). The emissive triangles are found over the worker's
+/// threads: an animation's frame makes its lights anew from a million triangles, few of them lit.
+fn area_lights(mesh: &Mesh, materials: &[Material], textures: &[Texture]) -> (Vec<Light>, Vec<u32>) {
+    let emissive: Vec<bool> = materials.iter().map(Material::is_emissive).collect();
+    let lit: Vec<u32> = match emissive.contains(&true) {
+        true => (0..mesh.len() as u32).into_par_iter().with_min_len(PARALLEL_GRAIN).filter(|&i| emissive[mesh.material[i as usize] as usize]).collect(),
+        false => Vec::new(),
+    };
+    let mut lights = Vec::new();
+    let mut tri_light = vec![NO_LIGHT; mesh.len()];
+    let mut means = vec![None; textures.len()];
+    for i in lit.into_iter().map(|i| i as usize) {
+        let m = &materials[mesh.material[i] as usize];
+        if let Some(mut l) = Light::triangle(i as u32, &mesh.positions[i], m.emission, m.double_sided) {
+            if let Some(t) = m.emissive_texture {
+                let mean = *means[t.texture as usize].get_or_insert_with(|| textures[t.texture as usize].mean_rgb());
+                l = l.with_texture(EmissiveTexture { texture: t, uvs: mesh.uvs_of(i), mean });
+            }
+            tri_light[i] = lights.len() as u32;
+            lights.push(l);
+        }
     }
-    if empty {
-        return (Vec3::ZERO, 1.0);
-    }
+    (lights, tri_light)
+}
+
+/// A sphere around the triangles that are geometry (degenerate ones must not move the bounds):
+/// around their box `solid_box`, a unit sphere at the origin if there are none.
+fn bounding_sphere(solid_box: Option<(Vec3, Vec3)>) -> (Vec3, f32) {
+    let Some((lo, hi)) = solid_box else { return (Vec3::ZERO, 1.0) };
     let c = (lo + hi) * 0.5;
     (c, ((hi - lo).length() * 0.5).max(1e-6))
 }
