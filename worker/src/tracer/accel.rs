@@ -17,7 +17,7 @@ use packet::{Packets, WatertightRay, for_packets, intersect_triangle};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::RayHit};
 use std::sync::Arc;
 use std::time::Duration;
-pub use faces::{Faces, face_normals, triangle_normal};
+pub use faces::{Faces, triangle_normal};
 pub(crate) use faces::PARALLEL_GRAIN;
 use faces::Degenerate;
 pub use refit::WORN;
@@ -77,7 +77,7 @@ impl Accel {
     }
 
     /// [`Accel::build`] (or, `refittable`, [`Accel::build_refittable`]) given the triangles'
-    /// [`face_normals`], which tell the degenerate ones: a frame whose refit was refused has
+    /// [`Faces`] normals, which tell the degenerate ones: a frame whose refit was refused has
     /// them already, for its shading. (A build without them holds only a bit per triangle, not
     /// the normals' 12 bytes, through its memory peak.)
     pub fn build_with_normals(tris: &[[Vec3; 3]], normals: &[Vec3], kind: BvhKind, refittable: bool) -> Accel {

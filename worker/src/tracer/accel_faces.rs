@@ -20,18 +20,14 @@ pub fn triangle_normal(v: &[Vec3; 3]) -> Option<DVec3> {
     (height > MACHINE_EPSILON as f64 * reach && height.is_finite()).then(|| cross / cross.length())
 }
 
-/// Each triangle's unit geometric normal ([`triangle_normal`] rounded to f32), zero for a
-/// degenerate one. A frame computes them once: the tree reads from them which triangles it may
-/// hit, the scene keeps them for shading. A pure map, so the same on any number of threads.
-pub fn face_normals(tris: &[[Vec3; 3]]) -> Vec<Vec3> {
-    Faces::of(tris).normals
-}
-
-/// A frame's triangles as the tracer sees them: each one's [`face_normals`], and the box around
-/// the solid ones (those with a normal), which a refit scales the tree by and the scene bounds
-/// its geometry with. One pass over the triangles: each further pass over a million of them
-/// reads 36 MB.
+/// A frame's triangles as the tracer sees them: each one's face normal, and the box around the
+/// solid ones (those with a normal), which a refit scales the tree by and the scene bounds its
+/// geometry with. One pass over the triangles: each further pass over a million of them reads
+/// 36 MB.
 pub struct Faces {
+    /// Each triangle's unit geometric normal ([`triangle_normal`] rounded to f32), zero for a
+    /// degenerate one. A frame computes them once: the tree reads from them which triangles it
+    /// may hit, the scene keeps them for shading.
     pub normals: Vec<Vec3>,
     /// Lowest and highest corner of the solid triangles; None when there are none.
     pub solid_box: Option<(Vec3, Vec3)>,
@@ -66,7 +62,7 @@ impl Faces {
 /// Per-triangle work below this many items stays on one thread (here and in the scene's scans).
 pub(crate) const PARALLEL_GRAIN: usize = 4096;
 
-/// Which triangles are degenerate (a zero [`face_normals`]), a bit each: the packets are
+/// Which triangles are degenerate (a zero normal of [`Faces`]), a bit each: the packets are
 /// gathered in tree order, in which a read of each triangle's 12-byte normal would miss the
 /// cache as often as the triangle's own read does; the bits of a million fit in 128 KiB.
 pub(super) struct Degenerate(Vec<u64>);

@@ -40,7 +40,7 @@ pub(super) struct RefitBase {
 }
 
 impl RefitBase {
-    /// Whether `tris`, with their [`super::face_normals`] (zero for a degenerate triangle, which
+    /// Whether `tris`, with their normals of [`Faces`] (zero for a degenerate triangle, which
     /// the tree holds but must not hit), can be refitted onto this tree: not another count, and
     /// no triangle the tree left out (not finite when it was built) solid now.
     fn holds(&self, tris: &[[Vec3; 3]], normals: &[Vec3]) -> bool {

@@ -224,7 +224,7 @@ fn a_refit_is_the_same_on_one_thread_and_on_four() {
     let moved: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|v| v + 0.01 * Vec3::new((v.y * 30.0).sin(), (v.z * 30.0).sin(), 0.0))).collect();
     let refit_on = |threads| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| (Accel::build_refittable(&tris, BvhKind::Wide).refit(&moved).unwrap(), face_normals(&moved)))
+        pool.install(|| (Accel::build_refittable(&tris, BvhKind::Wide).refit(&moved).unwrap(), Faces::of(&moved).normals))
     };
     let ((one, one_normals), (four, four_normals)) = (refit_on(1), refit_on(4));
     match (&one.tree, &four.tree) {
