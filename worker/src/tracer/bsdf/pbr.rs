@@ -1,15 +1,15 @@
 //! # Pbr — glTF 2.0 metallic-roughness BRDF with KHR_materials_specular
 //!
 //! Parameters (glTF names in brackets; all colours linear RGB):
-//! - `base_color` [baseColorFactor]: diffuse colour of a dielectric, F0 of a metal; [0, 1];
-//! - `metallic` [metallicFactor]: 0 = dielectric, 1 = metal, blends linearly in between;
-//! - `roughness` [roughnessFactor]: perceptual roughness in [0, 1]; the GGX width is
+//! - `base_color` \[baseColorFactor\]: diffuse colour of a dielectric, F0 of a metal; [0, 1];
+//! - `metallic` \[metallicFactor\]: 0 = dielectric, 1 = metal, blends linearly in between;
+//! - `roughness` \[roughnessFactor\]: perceptual roughness in [0, 1]; the GGX width is
 //!   α = roughness² (clamped to ggx::MIN_ALPHA, so 0 is a near-mirror);
-//! - `specular` [KHR_materials_specular specularFactor, default 1]: strength of the
+//! - `specular` \[KHR_materials_specular specularFactor, default 1\]: strength of the
 //!   dielectric's specular layer; 0 leaves a purely Lambertian base_color/π;
-//! - `specular_color` [specularColorFactor, default 1]: tints the dielectric's F0, may
+//! - `specular_color` \[specularColorFactor, default 1\]: tints the dielectric's F0, may
 //!   exceed 1 (the product with the IOR's F0 is clamped to 1);
-//! - `ior` [KHR_materials_ior, default 1.5]: sets the dielectric F0 = ((ior−1)/(ior+1))².
+//! - `ior` \[KHR_materials_ior, default 1.5\]: sets the dielectric F0 = ((ior−1)/(ior+1))².
 //!
 //! Model (glTF 2.0 Appendix B with the fresnel_mix of KHR_materials_specular, made
 //! energy-conserving), with spec = D·G2/(4 wo.z wi.z) from [`Ggx`] and fw = (1 − |wo·h|)⁵:
@@ -17,7 +17,7 @@
 //!   dielectric_f90 = specular, F_d = f0 + (f90 − f0)·fw;
 //! - E_s(μo) = max_channel(f0·E(μo) + (f90 − f0)·E_fw(μo)): the directional albedo of the
 //!   specular layer F_d·spec seen from wo, from the tabulated GGX albedos of
-//!   [`ggx_albedo`](super::ggx_albedo);
+//!   [`ggx_albedo`];
 //! - dielectric = F_d·spec + (1 − E_s(μo))·base_color/π;
 //! - metal = (base_color + (1 − base_color)·fw)·spec (Schlick conductor Fresnel);
 //! - f = mix(dielectric, metal, metallic).
