@@ -890,6 +890,104 @@ def scene_emitters_only() -> dict:
     return g.finish()
 
 
+class Lcg:
+    """Knuth's MMIX 64-bit LCG: the same numbers on every Python (unlike `random`'s helpers)."""
+
+    def __init__(self, seed: int):
+        self.state = seed & 0xFFFFFFFFFFFFFFFF
+
+    def uniform(self, lo: float = 0.0, hi: float = 1.0) -> float:
+        self.state = (self.state * 6364136223846793005 + 1442695040888963407) & 0xFFFFFFFFFFFFFFFF
+        return lo + (hi - lo) * (self.state >> 11) / float(1 << 53)
+
+    def below(self, n: int) -> int:
+        return min(int(self.uniform() * n), n - 1)
+
+
+# many-lights: a 16 x 16 grid of small down-facing lamps, 0.75 m apart over a 12 m floor.
+MANY_LIGHTS_GRID, MANY_LIGHTS_PITCH, MANY_LIGHTS_JITTER = 16, 0.75, 0.12
+# Lamp colours (emissiveFactor, max channel 1); each is scaled to the same luminance before a
+# strength level multiplies it, so no colour outshines the others.
+MANY_LIGHTS_COLOURS = [
+    ("warm", (1.0, 0.8, 0.6)), ("cool", (0.7, 0.85, 1.0)), ("orange", (1.0, 0.45, 0.2)),
+    ("amber", (1.0, 0.7, 0.25)), ("green", (0.4, 1.0, 0.45)), ("blue", (0.35, 0.5, 1.0)),
+    ("magenta", (1.0, 0.4, 0.8)), ("cyan", (0.4, 1.0, 0.95)),
+]
+MANY_LIGHTS_LEVELS = (0.6, 1.0, 1.6)
+MANY_LIGHTS_LUMINANCE = 50.0  # luminance of the radiance at level 1
+
+
+def scene_many_lights() -> dict:
+    """Hundreds of small lights: 256 lamps (8-10 cm squares, 0.25-0.4 m up, facing down) in a
+    jittered grid over a 12 m floor with a back wall, pillars and low walls (placed in the gaps
+    between lamps). From any shading point nearly all lamps are far away or hidden, so choosing
+    a lamp by its power wastes most shadow rays. Matte surfaces and one-sided area lights only,
+    so tests/reference/gltf_scene.py gives Mitsuba the same scene."""
+    g = Gltf("Many lights: 256 small down-facing lamps over a floor with occluders")
+    rng = Lcg(20261204)
+    floor_m = g.material(lambert("floor_grey", (0.5, 0.5, 0.5)))
+    g.node("floor", mesh=g.flat_mesh("floor", rect_y(-6.0, 6.0, -6.0, 6.0, 0.0, True), floor_m))
+    wall = [(-6.0, 0.0, -6.0), (6.0, 0.0, -6.0), (6.0, 3.0, -6.0), (-6.0, 3.0, -6.0)]
+    wall_tris = [orient(t, (0.0, 0.0, 1.0)) for t in quad_to_tris(wall)]
+    g.node("back_wall", mesh=g.flat_mesh("back_wall", wall_tris, floor_m))
+
+    # Occluders, centred on the lines between lamp rows and columns (multiples of the pitch):
+    # (name, albedo, centre x, centre z, size x, y, z).
+    albedos = {"red": (0.7, 0.15, 0.1), "green": (0.15, 0.6, 0.15), "blue": (0.1, 0.2, 0.7),
+               "yellow": (0.75, 0.65, 0.15), "white": (0.75, 0.75, 0.7)}
+    p = MANY_LIGHTS_PITCH
+    boxes = [
+        ("pillar_red", "red", -3.0 * p, -2.0 * p, 0.3, 1.0, 0.3),
+        ("pillar_blue", "blue", 2.0 * p, 1.0 * p, 0.3, 1.4, 0.3),
+        ("pillar_yellow", "yellow", -5.0 * p, -5.0 * p, 0.35, 0.9, 0.35),
+        ("pillar_white", "white", 0.0, 5.0 * p, 0.3, 0.5, 0.3),
+        ("pillar_green", "green", 5.0 * p, 4.0 * p, 0.3, 0.8, 0.3),
+        ("wall_white", "white", -2.5 * p, 3.0 * p, 3.0 * p, 0.7, 0.12),
+        ("wall_green", "green", 4.0 * p, -3.5 * p, 0.12, 0.6, 3.0 * p),
+        ("wall_blue", "blue", 3.0 * p, -6.0 * p, 4.0 * p, 0.8, 0.12),
+        ("wall_red", "red", -1.0 * p, -1.5 * p, 0.12, 0.5, 3.0 * p),
+    ]
+    box_mats = {}
+    for name, colour, cx, cz, sx, sy, sz in boxes:
+        if colour not in box_mats:
+            box_mats[colour] = g.material(lambert("box_" + colour, albedos[colour]))
+        g.node(name, translation=(cx, sy / 2.0, cz), mesh=g.flat_mesh(name, box_triangles((sx, sy, sz)), box_mats[colour]))
+
+    # Lamps: per grid cell a jittered centre, a width, a height, a colour and a strength level.
+    half = (MANY_LIGHTS_GRID - 1) / 2.0
+    groups: dict[tuple[int, int], list[Tri]] = {}
+    for i in range(MANY_LIGHTS_GRID):
+        for j in range(MANY_LIGHTS_GRID):
+            cx = (i - half) * p + rng.uniform(-MANY_LIGHTS_JITTER, MANY_LIGHTS_JITTER)
+            cz = (j - half) * p + rng.uniform(-MANY_LIGHTS_JITTER, MANY_LIGHTS_JITTER)
+            w = rng.uniform(0.08, 0.10) / 2.0
+            y = rng.uniform(0.25, 0.40)
+            key = (rng.below(len(MANY_LIGHTS_COLOURS)), rng.below(len(MANY_LIGHTS_LEVELS)))
+            cx, cz, w, y = (round(v, 4) for v in (cx, cz, w, y))
+            # Clear of every box by 2 cm (sideways, or above its top).
+            for name, _, bx, bz, sx, sy, sz in boxes:
+                apart = abs(cx - bx) > w + sx / 2.0 + 0.02 or abs(cz - bz) > w + sz / 2.0 + 0.02
+                assert apart or y > sy + 0.02, (name, i, j)
+            groups.setdefault(key, []).extend(rect_y(cx - w, cx + w, cz - w, cz + w, y, False))
+    assert sum(len(t) for t in groups.values()) == 2 * MANY_LIGHTS_GRID ** 2
+    primitives = []
+    for (c, lv) in sorted(groups):
+        cname, rgb = MANY_LIGHTS_COLOURS[c]
+        luminance = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]
+        strength = round(MANY_LIGHTS_LUMINANCE * MANY_LIGHTS_LEVELS[lv] / luminance, 3)
+        m = g.material(lambert("lamp_%s_%g" % (cname, MANY_LIGHTS_LEVELS[lv]), (0.78, 0.78, 0.78), rgb, strength))
+        tris = groups[(c, lv)]
+        pos = [v for t in tris for v in t]
+        nrm = [tri_normal(t) for t in tris for _ in range(3)]
+        primitives.append({"attributes": {"POSITION": g.vec3_accessor(pos, with_bounds=True),
+                                          "NORMAL": g.vec3_accessor(nrm, with_bounds=False)},
+                           "indices": g.index_accessor(list(range(len(pos)))), "material": m, "mode": 4})
+    g.doc["meshes"].append({"name": "lamps", "primitives": primitives})
+    g.node("lamps", mesh=len(g.doc["meshes"]) - 1)
+    g.camera("Camera", 0.8, (0.0, 4.0, 7.5), (0.0, 0.0, -0.5))
+    return g.finish()
+
+
 SCENES = {
     "absorption.gltf": scene_absorption,
     "alpha-mask.gltf": scene_alpha_mask,
@@ -901,6 +999,7 @@ SCENES = {
     "cornell-small-light.gltf": scene_cornell_small_light,
     "furnace.gltf": scene_furnace,
     "glossy.gltf": scene_glossy,
+    "many-lights.gltf": scene_many_lights,
     "phong.gltf": scene_phong,
     "punctual.gltf": scene_punctual,
     "textured.gltf": scene_textured,

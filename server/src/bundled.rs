@@ -14,6 +14,7 @@ pub const SCENES: &[(&str, &[u8])] = &[
     ("furnace", include_bytes!("../../scenes/furnace.gltf")),
     ("glass", include_bytes!("../../scenes/glass.gltf")),
     ("glossy", include_bytes!("../../scenes/glossy.gltf")),
+    ("many-lights", include_bytes!("../../scenes/many-lights.gltf")),
     ("phong", include_bytes!("../../scenes/phong.gltf")),
     ("punctual", include_bytes!("../../scenes/punctual.gltf")),
     ("textured", include_bytes!("../../scenes/textured.gltf")),

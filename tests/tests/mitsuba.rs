@@ -76,6 +76,17 @@ fn phong_lobes_match_mitsuba_within_error_bars() {
     matches_mitsuba(&flat_shaded("phong"), "phong-flat-mitsuba.exr", 256);
 }
 
+/// 256 small lamps (512 emissive triangles) over a floor with occluders: choosing among them
+/// through the light tree. The tree's choice probabilities, and the MIS weights that use them
+/// when a BSDF-sampled ray hits a lamp, must leave the image unbiased however unevenly they
+/// spread the shadow rays. Mitsuba chooses a lamp by power, an independent estimator of the same
+/// integral. The scene is matte surfaces and one-sided area lights only, so it translates for
+/// Mitsuba as it is, vertex normals included (tests/reference/README.md).
+#[test]
+fn many_lights_match_mitsuba_within_error_bars() {
+    matches_mitsuba(&bundled::load("many-lights").unwrap(), "many-lights-mitsuba.exr", 256);
+}
+
 /// A bundled scene without its vertex normals: glTF then shades each face by its own normal.
 fn flat_shaded(name: &str) -> Scene {
     let mut doc: serde_json::Value = serde_json::from_slice(bundled::get(name).unwrap()).unwrap();

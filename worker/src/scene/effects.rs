@@ -4,6 +4,7 @@
 //! | effect               | when                                                   |
 //! |----------------------|--------------------------------------------------------|
 //! | `area_lights`        | some triangle emits                                    |
+//! | `light_tree`         | at least 64 triangles emit: lights are chosen through a light tree |
 //! | `point_lights`, `spot_lights`, `directional_lights` | `KHR_lights_punctual` lights |
 //! | `lambert`            | a material is purely diffuse (metallic 0, specular 0)  |
 //! | `ggx`                | a material has a microfacet specular layer or is metal |
@@ -19,7 +20,7 @@
 //! The job adds `background` when it sets a non-black background.
 use crate::tracer::camera::Camera;
 use crate::tracer::effects::Effects;
-use crate::tracer::light::Light;
+use crate::tracer::light::{Light, LightTree};
 use crate::tracer::material::Material;
 use crate::tracer::scene::Mesh;
 
@@ -28,6 +29,14 @@ pub fn of(mesh: &Mesh, materials: &[Material], cameras: &[Camera], lights: &[Lig
     mesh.material.iter().for_each(|&m| used[m as usize] = true);
     let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
     let mut e = Effects::analyse(used_materials, lights);
+    // The scene's area lights are made when it is built; count the triangles that will be.
+    let emits = |t: usize| {
+        let m = &materials[mesh.material[t] as usize];
+        m.is_emissive() && Light::triangle(t as u32, &mesh.positions[t], m.emission, m.double_sided).is_some()
+    };
+    if (0..mesh.len()).filter(|&t| emits(t)).count() >= LightTree::MIN_LIGHTS {
+        e = e | Effects::LIGHT_TREE;
+    }
     if cameras.iter().any(Camera::has_depth_of_field) {
         e = e | Effects::DEPTH_OF_FIELD;
     }

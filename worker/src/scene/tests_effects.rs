@@ -40,10 +40,12 @@ fn each_effect_scene_reports_its_effect_and_the_matte_scenes_do_not() {
         ("textured", "normal_maps"),
         ("textured", "ggx"),
         ("emitters-only", "max_depth=0"),
+        ("many-lights", "light_tree"),
     ] {
         assert!(effects(scene).contains(&effect.to_string()), "{scene}: {:?}", effects(scene));
     }
     assert_eq!(effects("cornell-box"), ["area_lights", "lambert"]);
+    assert_eq!(effects("many-lights"), ["area_lights", "lambert", "light_tree"]);
     assert!(!effects("glass").contains(&"absorption".to_string()), "clear glass does not absorb");
     assert!(!effects("alpha-mask").contains(&"normal_maps".to_string()), "base colour only");
 }

@@ -5,7 +5,7 @@
 //!
 //! Gating: effects are grouped into kernel bits ([`KernelBits`]); the integrator and the tile
 //! loop are generic over an [`EffectSet`] whose associated consts are those bits, and
-//! [`dispatch_kernel!`] instantiates one monomorphized kernel per bit combination. Code for an
+//! `dispatch_kernel!` instantiates one monomorphized kernel per bit combination. Code for an
 //! absent effect is behind `if E::GLASS { … }` with a constant condition, so the compiler
 //! removes it from that kernel: a matte scene runs a kernel that contains no glass, alpha,
 //! lens or texture code at all, not one that branches around it per sample.
@@ -16,7 +16,7 @@
 //!
 //! Depth: [`Effects::NO_SCATTERING`] (no used material can scatter) lets a render stop every
 //! path at its first hit; see [`crate::tracer::Scene::needed_depth`].
-use crate::tracer::light::Light;
+use crate::tracer::light::{Light, LightTree};
 use crate::tracer::material::{Material, MaterialModel};
 
 /// A set of effects, one bit each.
@@ -41,10 +41,13 @@ impl Effects {
     /// Not an effect but its absence: no material can scatter light, so a path needs no
     /// bounce (the camera sees emitters and black); reported as the depth limit "max_depth=0".
     pub const NO_SCATTERING: Effects = Effects(1 << 14);
+    /// So many area lights ([`LightTree::MIN_LIGHTS`]) that light samples choose among them
+    /// through a [`LightTree`]; fewer are chosen by power, at no cost for the tree.
+    pub const LIGHT_TREE: Effects = Effects(1 << 15);
     pub const NONE: Effects = Effects(0);
 
     /// Every effect with its reported name, in report order.
-    pub const NAMED: [(Effects, &'static str); 15] = [
+    pub const NAMED: [(Effects, &'static str); 16] = [
         (Effects::ABSORPTION, "absorption"),
         (Effects::ALPHA_MASK, "alpha_mask"),
         (Effects::AREA_LIGHTS, "area_lights"),
@@ -54,6 +57,7 @@ impl Effects {
         (Effects::GGX, "ggx"),
         (Effects::GLASS, "glass"),
         (Effects::LAMBERT, "lambert"),
+        (Effects::LIGHT_TREE, "light_tree"),
         (Effects::NO_SCATTERING, "max_depth=0"),
         (Effects::NORMAL_MAPS, "normal_maps"),
         (Effects::PHONG, "phong"),
@@ -92,6 +96,9 @@ impl Effects {
                 Light::Triangle { .. } => Effects::AREA_LIGHTS,
                 Light::Background { .. } => Effects::BACKGROUND,
             };
+        }
+        if lights.iter().filter(|l| matches!(l, Light::Triangle { .. })).count() >= LightTree::MIN_LIGHTS {
+            e = e | Effects::LIGHT_TREE;
         }
         e
     }

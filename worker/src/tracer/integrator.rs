@@ -110,7 +110,8 @@ struct Bounce {
 
 impl<'a> Integrator<'a> {
     pub fn new(scene: &'a Scene, background: Vec3, settings: PathSettings) -> Integrator<'a> {
-        let lights = LightSet::new(&scene.lights, background, scene.bounds_radius).with_textures(&scene.textures);
+        let lights = LightSet::with_tree(&scene.lights, scene.light_tree.as_ref(), background, scene.bounds_radius)
+            .with_textures(&scene.textures);
         Integrator { scene, lights, settings, ray_log: None }
     }
 
@@ -221,7 +222,7 @@ impl<'a> Integrator<'a> {
             (_, None) | (Estimator::Bsdf, _) => s.le,
             (_, Some(b)) if b.specular => s.le,
             (Estimator::Mis, Some(b)) if s.light != NO_LIGHT => {
-                let light_pdf = self.lights.pdf_area(s.light, b.p.into(), s.p.p);
+                let light_pdf = self.lights.pdf_area(s.light, b.p.into(), b.n.into(), s.p.p);
                 s.le * power_heuristic(1.0, b.bsdf_pdf, 1.0, light_pdf)
             }
             _ if depth == 0 => s.le,

@@ -11,7 +11,9 @@
 //! glTF's photometric units are used as radiometric ones (no 683 lm/W factor): a light of
 //! intensity 1 in the file gives radiance of order 1 in the image. Point, spot and directional
 //! lights are delta lights: they are reached only by light sampling, never by a BSDF ray.
-//! A [`LightSet`] picks lights in proportion to their power, so dim lights cost little.
+//! A [`LightSet`] picks lights in proportion to their power, so dim lights cost little; a scene
+//! with many area lights ([`LightTree::MIN_LIGHTS`]) picks among those through a [`LightTree`]
+//! instead, by what each can give the point being lit (`light_tree.rs`).
 //!
 //! A triangle whose material has an `emissiveTexture` emits radiance × texture(uv): light
 //! sampling picks a point uniformly on the triangle and evaluates the texture exactly there,
@@ -30,6 +32,10 @@ use crate::tracer::sampler::ONE_MINUS_EPSILON;
 use crate::tracer::sampling::{Frame, cosine_hemisphere, luminance, uniform_triangle};
 use glam::{DVec3, Vec2, Vec3};
 use std::f32::consts::PI;
+
+#[path = "light_tree.rs"]
+mod tree;
+pub use tree::LightTree;
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Light {
@@ -189,22 +195,36 @@ fn spot_falloff(cos_theta: f32, cos_inner: f32, cos_outer: f32) -> f32 {
     t * t
 }
 
-/// The lights of one render (the scene's plus the job's background), chosen by power.
+/// The lights of one render (the scene's plus the job's background), chosen by power, and
+/// the scene's area lights through its [`LightTree`] when it has one.
 pub struct LightSet<'a> {
     scene_lights: &'a [Light],
     /// The scene's textures (for emissive textures).
     textures: &'a [Texture],
     background: Option<Light>,
-    /// Choice probability per light; the background, if any, is last.
+    /// The tree over `scene_lights[..tree.len()]`, which are then one entry of the choice.
+    tree: Option<&'a LightTree>,
+    /// Choice probability per entry: the tree's lights as one (first), then each other light;
+    /// the background, if any, is last.
     pmf: Vec<f32>,
     cdf: Vec<f32>,
 }
 
 impl<'a> LightSet<'a> {
     pub fn new(scene_lights: &'a [Light], background: Vec3, scene_radius: f32) -> LightSet<'a> {
+        LightSet::with_tree(scene_lights, None, background, scene_radius)
+    }
+
+    /// The set whose first `tree.len()` lights are chosen through `tree`.
+    pub fn with_tree(scene_lights: &'a [Light], tree: Option<&'a LightTree>, background: Vec3, scene_radius: f32) -> LightSet<'a> {
         let background = (background.max_element() > 0.0).then_some(Light::Background { radiance: background });
-        let powers: Vec<f32> =
-            scene_lights.iter().chain(background.iter()).map(|l| l.power(scene_radius).max(0.0)).collect();
+        let tree = tree.filter(|t| !t.is_empty());
+        let grouped = tree.map_or(0, |t| t.len());
+        let powers: Vec<f32> = tree
+            .map(|t| t.power().max(0.0))
+            .into_iter()
+            .chain(scene_lights[grouped..].iter().chain(background.iter()).map(|l| l.power(scene_radius).max(0.0)))
+            .collect();
         let total: f32 = powers.iter().sum();
         let n = powers.len() as f32;
         let pmf: Vec<f32> = if total > 0.0 && total.is_finite() {
@@ -218,7 +238,7 @@ impl<'a> LightSet<'a> {
             acc
         });
         let cdf = cdf.collect();
-        LightSet { scene_lights, textures: &[], background, pmf, cdf }
+        LightSet { scene_lights, textures: &[], background, tree, pmf, cdf }
     }
 
     /// This set reading emissive textures from `textures`.
@@ -241,7 +261,27 @@ impl<'a> LightSet<'a> {
         self.scene_lights.get(i).unwrap_or_else(|| self.background.as_ref().expect("index in range"))
     }
 
-    /// Picks a light by power with `u.x` and samples it from `p` with shading normal `n`.
+    /// Lights chosen through the tree: `scene_lights[..grouped]`.
+    fn grouped(&self) -> usize {
+        self.tree.map_or(0, |t| t.len())
+    }
+
+    /// The light of choice entry `e`, which is not the tree's.
+    fn entry_light(&self, e: usize) -> usize {
+        e + self.grouped() - usize::from(self.tree.is_some())
+    }
+
+    /// The probability that a light sample for `p` (shading normal `n`) picks light `i`.
+    fn choice_pmf(&self, i: usize, p: Vec3, n: Vec3) -> f32 {
+        match self.tree {
+            Some(t) if i < t.len() => self.pmf[0] * t.pmf(i, p, n),
+            Some(t) => self.pmf[i - t.len() + 1],
+            None => self.pmf[i],
+        }
+    }
+
+    /// Picks a light with `u.x` (by power, or through the tree) and samples it from `p` with
+    /// shading normal `n`.
     pub fn sample(&self, p: Vec3, n: Vec3, u: Vec2) -> Option<LightSample> {
         self.sample_for::<AllEffects>(p, n, u)
     }
@@ -255,9 +295,16 @@ impl<'a> LightSet<'a> {
     /// hand each a random half of a pixel's points — and a bounce draws one number fewer.
     #[inline]
     pub fn sample_for<E: EffectSet>(&self, p: Vec3, n: Vec3, u: Vec2) -> Option<LightSample> {
-        let (i, x) = self.choose(u.x)?;
+        let (e, x) = self.choose(u.x)?;
+        let (i, pick, x) = match self.tree {
+            Some(t) if e == 0 => {
+                let (i, in_tree, x) = t.sample(p, n, x)?;
+                (i, self.pmf[0] * in_tree, x)
+            }
+            _ => (self.entry_light(e), self.pmf[e], x),
+        };
         let mut s = self.light(i).sample::<E>(p, n, Vec2::new(x, u.y), self.textures)?;
-        s.pdf *= self.pmf[i];
+        s.pdf *= pick;
         Some(s)
     }
 
@@ -278,9 +325,9 @@ impl<'a> LightSet<'a> {
         Some((i, ((x - below) / pick).clamp(0.0, ONE_MINUS_EPSILON)))
     }
 
-    /// Solid-angle density with which `sample` returns the point `q` (normal `ng`) of area light
-    /// `light` as seen from `p`.
-    pub fn pdf_area(&self, light: u32, p: Vec3, q: Vec3) -> f32 {
+    /// Solid-angle density with which `sample` returns the point `q` of area light `light` as
+    /// seen from `p` with shading normal `n`.
+    pub fn pdf_area(&self, light: u32, p: Vec3, n: Vec3, q: Vec3) -> f32 {
         match self.scene_lights[light as usize] {
             Light::Triangle { plane, area, two_sided, .. } => {
                 let dist2 = (q - p).length_squared();
@@ -288,7 +335,7 @@ impl<'a> LightSet<'a> {
                 if !(cos_l > 0.0 || two_sided && cos_l < 0.0) {
                     return 0.0;
                 }
-                self.pmf[light as usize] * dist2 / (cos_l.abs() * area)
+                self.choice_pmf(light as usize, p, n) * dist2 / (cos_l.abs() * area)
             }
             _ => 0.0,
         }

@@ -58,7 +58,7 @@ fn area_pdf_agrees_with_the_sampled_pdf() {
         let expected = match s.target {
             Target::Point { p: q, .. } => {
                 let light = if s.li.x == 1.0 { 0 } else { 1 };
-                set.pdf_area(light, p, q.p)
+                set.pdf_area(light, p, Vec3::Y, q.p)
             }
             Target::Infinite => set.pdf_background(Vec3::Y, s.wi),
         };

@@ -5,7 +5,7 @@
 use crate::tracer::accel::{Accel, BvhKind, Faces, PARALLEL_GRAIN};
 use crate::tracer::camera::Camera;
 use crate::tracer::effects::Effects;
-use crate::tracer::light::{EmissiveTexture, Light};
+use crate::tracer::light::{EmissiveTexture, Light, LightTree};
 use crate::tracer::material::Material;
 use crate::tracer::texture::Texture;
 use glam::Vec3;
@@ -21,6 +21,9 @@ pub struct Scene {
     pub cameras: Vec<Camera>,
     /// Area lights (one per emissive triangle of non-zero area) followed by punctual lights.
     pub lights: Vec<Light>,
+    /// The area lights (`lights[..tree.len()]`) in a tree, when there are many
+    /// ([`LightTree::MIN_LIGHTS`]): light samples then favour the lights near a point.
+    pub light_tree: Option<LightTree>,
     /// Triangle → index in `lights`, or `NO_LIGHT`.
     pub tri_light: Vec<u32>,
     /// Unit geometric normal per triangle, from f64 (zero for degenerate triangles, which
@@ -90,13 +93,14 @@ impl Scene {
         let Faces { normals: face_normals, solid_box } = faces;
         assert_eq!(face_normals.len(), mesh.len(), "one face normal per triangle");
         let (mut lights, tri_light) = area_lights(&mesh, &materials, &textures);
+        let light_tree = LightTree::over(&lights);
         lights.extend(punctual);
         let (bounds_centre, bounds_radius) = bounding_sphere(solid_box);
         let mut used = vec![false; materials.len()];
         mesh.material.iter().for_each(|&m| used[m as usize] = true);
         let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
         let effects = Effects::analyse(used_materials, &lights);
-        Scene { mesh, materials, textures, cameras, lights, tri_light, face_normals, accel, bounds_centre, bounds_radius, effects }
+        Scene { mesh, materials, textures, cameras, lights, light_tree, tri_light, face_normals, accel, bounds_centre, bounds_radius, effects }
     }
 
     /// The effects of a render through `camera` with the job's `background`.
