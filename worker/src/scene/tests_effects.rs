@@ -1,7 +1,7 @@
 //! Every bundled scene reports the effects it calls for, and its gated render agrees with a
 //! render by the kernel with every effect compiled in, per pixel, within error bars.
 use super::*;
-use crate::tracer::effects::KernelBits;
+use crate::tracer::effects::{Effects, KernelBits};
 use crate::tracer::integrator::tests::settings;
 use crate::tracer::{Estimator, PixelSums, Roulette, render_tile_kernel};
 use std::path::PathBuf;
@@ -48,6 +48,20 @@ fn each_effect_scene_reports_its_effect_and_the_matte_scenes_do_not() {
     assert_eq!(effects("many-lights"), ["area_lights", "lambert", "light_tree"]);
     assert!(!effects("glass").contains(&"absorption".to_string()), "clear glass does not absorb");
     assert!(!effects("alpha-mask").contains(&"normal_maps".to_string()), "base colour only");
+}
+
+/// A scene reports the effects it is rendered with: the parsed file's (what an upload answers)
+/// are the built scene's, whose lights and light tree exist only once it is built.
+#[test]
+fn every_bundled_scene_reports_the_effects_of_the_scene_it_builds() {
+    for name in bundled() {
+        let parsed = parse(&std::fs::read(scene_path(&name)).unwrap(), None).unwrap();
+        let reported = parsed.effects();
+        let built = parsed.build();
+        let cameras = built.cameras.iter().fold(built.effects, |e, c| if c.has_depth_of_field() { e | Effects::DEPTH_OF_FIELD } else { e });
+        assert_eq!(cameras.names(), reported, "{name}");
+        assert_eq!(built.light_tree.is_some(), reported.contains(&"light_tree".to_string()), "{name}");
+    }
 }
 
 #[test]

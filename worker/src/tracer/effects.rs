@@ -16,7 +16,7 @@
 //!
 //! Depth: [`Effects::NO_SCATTERING`] (no used material can scatter) lets a render stop every
 //! path at its first hit; see [`crate::tracer::Scene::needed_depth`].
-use crate::tracer::light::{Light, LightTree};
+use crate::tracer::light::Light;
 use crate::tracer::material::{Material, MaterialModel};
 
 /// A set of effects, one bit each.
@@ -41,8 +41,10 @@ impl Effects {
     /// Not an effect but its absence: no material can scatter light, so a path needs no
     /// bounce (the camera sees emitters and black); reported as the depth limit "max_depth=0".
     pub const NO_SCATTERING: Effects = Effects(1 << 14);
-    /// So many area lights ([`LightTree::MIN_LIGHTS`]) that light samples choose among them
-    /// through a [`LightTree`]; fewer are chosen by power, at no cost for the tree.
+    /// So many area lights ([`LightTree::MIN_LIGHTS`](crate::tracer::light::LightTree::MIN_LIGHTS))
+    /// that light samples choose among them through the scene's light tree; fewer are chosen
+    /// by power, at no cost for the tree. Set where the tree is built (or, for a scene not yet
+    /// built, where its emissive triangles are counted), not by [`Effects::analyse`].
     pub const LIGHT_TREE: Effects = Effects(1 << 15);
     pub const NONE: Effects = Effects(0);
 
@@ -96,9 +98,6 @@ impl Effects {
                 Light::Triangle { .. } => Effects::AREA_LIGHTS,
                 Light::Background { .. } => Effects::BACKGROUND,
             };
-        }
-        if lights.iter().filter(|l| matches!(l, Light::Triangle { .. })).count() >= LightTree::MIN_LIGHTS {
-            e = e | Effects::LIGHT_TREE;
         }
         e
     }

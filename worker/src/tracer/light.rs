@@ -261,14 +261,13 @@ impl<'a> LightSet<'a> {
         self.scene_lights.get(i).unwrap_or_else(|| self.background.as_ref().expect("index in range"))
     }
 
-    /// Lights chosen through the tree: `scene_lights[..grouped]`.
-    fn grouped(&self) -> usize {
-        self.tree.map_or(0, |t| t.len())
-    }
-
-    /// The light of choice entry `e`, which is not the tree's.
+    /// The light of choice entry `e`, which is not the tree's (the inverse of `choice_pmf`'s
+    /// entry for a light).
     fn entry_light(&self, e: usize) -> usize {
-        e + self.grouped() - usize::from(self.tree.is_some())
+        match self.tree {
+            Some(t) => e - 1 + t.len(),
+            None => e,
+        }
     }
 
     /// The probability that a light sample for `p` (shading normal `n`) picks light `i`.

@@ -99,7 +99,10 @@ impl Scene {
         let mut used = vec![false; materials.len()];
         mesh.material.iter().for_each(|&m| used[m as usize] = true);
         let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
-        let effects = Effects::analyse(used_materials, &lights);
+        let mut effects = Effects::analyse(used_materials, &lights);
+        if light_tree.is_some() {
+            effects = effects | Effects::LIGHT_TREE;
+        }
         Scene { mesh, materials, textures, cameras, lights, light_tree, tri_light, face_normals, accel, bounds_centre, bounds_radius, effects }
     }
 
