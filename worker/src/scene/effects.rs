@@ -4,7 +4,7 @@
 //! | effect               | when                                                   |
 //! |----------------------|--------------------------------------------------------|
 //! | `area_lights`        | some triangle emits                                    |
-//! | `light_tree`         | at least 64 triangles emit: lights are chosen through a light tree |
+//! | `light_tree`         | at least 32 triangles emit: lights are chosen through a light tree |
 //! | `point_lights`, `spot_lights`, `directional_lights` | `KHR_lights_punctual` lights |
 //! | `lambert`            | a material is purely diffuse (metallic 0, specular 0)  |
 //! | `ggx`                | a material has a microfacet specular layer or is metal |

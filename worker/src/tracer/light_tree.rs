@@ -2,8 +2,11 @@
 //!
 //! A scene's emissive triangles in a tree of bounds, for scenes with at least
 //! [`LightTree::MIN_LIGHTS`] of them. Below that, [`LightSet`](super::LightSet) picks lights in
-//! proportion to their power alone, as before: a handful of lights each get samples anyway,
-//! and a walk down a tree costs more than the choice it improves.
+//! proportion to their power alone: a handful of lights each get samples anyway, and a walk
+//! down a tree can cost more than the choice it improves (a 12-triangle emissive enclosure,
+//! `furnace`, takes 1.3× the relMSE·s through the tree). From 16 emissive triangles on, lamps
+//! apart and a tessellated sphere light both reached a given quality sooner through the tree
+//! (docs/tools/light_tree_study.py, docs/performance.md session 42); 32 is the threshold.
 //!
 //! Power alone fails where lights are many and spread out (a field of lamps, a lit window
 //! grid, an emissive mesh): a point is lit by the few lights near it and facing it, but is
@@ -71,6 +74,8 @@ struct Inner {
     cos_o: Vec4,
     sin_o: Vec4,
     power: Vec4,
+    /// What a point inside the child's bounding sphere is given: power / r².
+    power_inside: Vec4,
     /// 1 where a child has a two-sided light, else 0.
     two_sided: Vec4,
     child: [u32; WIDTH],
@@ -85,8 +90,10 @@ const COS_MARGIN: f32 = 1e-4;
 const COS_FLOOR: f32 = 1e-4;
 
 impl LightTree {
-    /// Scenes with fewer area lights than this choose by power alone.
-    pub const MIN_LIGHTS: usize = 64;
+    /// Scenes with fewer area lights than this choose by power alone. The smallest power of two
+    /// at which every scene family measured gains (session 42: relMSE·s through the tree 0.26×
+    /// on 16 lamps, 0.83× on a 32-facet sphere light); the bundled scenes have at most 24.
+    pub const MIN_LIGHTS: usize = 32;
 
     /// A tree over the leading triangle lights of `lights`, if there are at least
     /// [`LightTree::MIN_LIGHTS`] of them.
@@ -117,10 +124,12 @@ impl LightTree {
         let mut pmf = 1.0f32;
         loop {
             let node = self.nodes.get(at)?;
-            let probs = node.probabilities(p, n)?;
-            let (k, below) = pick(&probs, node.count as usize, u);
-            pmf *= probs[k];
-            u = ((u - below) / probs[k]).min(ONE_MINUS_EPSILON);
+            let (weights, total) = node.weights(p, n)?;
+            // The choice scales u rather than the weights, so it need not wait for a division.
+            let x = u * total;
+            let (k, below) = pick(&weights, node.count as usize, x);
+            pmf *= weights[k] / total;
+            u = ((x - below) / weights[k]).min(ONE_MINUS_EPSILON);
             match node.child[k] {
                 c if c & LEAF != 0 => return Some(((c & !LEAF) as usize, pmf, u)),
                 c => at = c as usize,
@@ -134,9 +143,9 @@ impl LightTree {
         let (mut at, mut trail, mut pmf) = (0, trail, 1.0f32);
         loop {
             let node = &self.nodes[at];
-            let Some(probs) = node.probabilities(p, n) else { return 0.0 };
+            let Some((weights, total)) = node.weights(p, n) else { return 0.0 };
             let k = (trail & 3) as usize;
-            pmf *= probs[k];
+            pmf *= weights[k] / total;
             match node.child[k] {
                 c if c & LEAF != 0 => return pmf,
                 c => at = c as usize,
@@ -146,39 +155,38 @@ impl LightTree {
     }
 }
 
-/// The child whose interval of [0, 1) `u` falls in, and where that interval starts.
+/// The child whose interval of [0, Σ weights) `x` falls in, and where that interval starts.
 // A search with branches, not a branch-free count: the core runs ahead down the predicted
 // child, overlapping the next level's loads and roots; counting was 8–15 % slower (session 41).
-fn pick(probs: &[f32; WIDTH], count: usize, u: f32) -> (usize, f32) {
+fn pick(weights: &[f32; WIDTH], count: usize, x: f32) -> (usize, f32) {
     let (mut below, mut last) = (0.0f32, 0);
-    for (k, &p) in probs.iter().enumerate().take(count) {
-        if p > 0.0 {
-            let above = below + p;
-            if u < above {
+    for (k, &w) in weights.iter().enumerate().take(count) {
+        if w > 0.0 {
+            let above = below + w;
+            if x < above {
                 return (k, below);
             }
             (below, last) = (above, k);
         }
     }
-    // Rounding left u past the last interval: it is the last light's.
-    (last, below - probs[last])
+    // Rounding left x past the last interval: it is the last child's.
+    (last, below - weights[last])
 }
 
 impl Inner {
-    /// Each child's share of the light for `p` (normal `n`), or None if none can light it.
+    /// Each child's weight for `p` (normal `n`) and their sum (a child's probability is its
+    /// weight over the sum), or None if none can light it.
     #[inline]
-    fn probabilities(&self, p: Vec3, n: Vec3) -> Option<[f32; WIDTH]> {
+    fn weights(&self, p: Vec3, n: Vec3) -> Option<([f32; WIDTH], f32)> {
         let i = self.importance(p, n).to_array();
         let total = (i[0] + i[1]) + (i[2] + i[3]);
         if total == f32::INFINITY {
             // Lights bright enough to overflow: every child that may light p gets an equal share,
             // which `pmf` finds the same way.
             let reach = i.map(|i| if i > 0.0 { 1.0 } else { 0.0 });
-            let count = (reach[0] + reach[1]) + (reach[2] + reach[3]);
-            return Some(reach.map(|r| r / count));
+            return Some((reach, (reach[0] + reach[1]) + (reach[2] + reach[3])));
         }
-        // One division for the four shares (`pmf` finds the same bits the same way).
-        (total > 0.0 && total.is_finite()).then(|| (Vec4::from(i) * (1.0 / total)).to_array())
+        (total > 0.0 && total.is_finite()).then_some((i, total))
     }
 
     /// How much each child's lights may give a point `p` with shading normal `n` (zero: none):
@@ -213,7 +221,7 @@ impl Inner {
         let importance = Vec4::select(cos_p.cmplt(Vec4::splat(-COS_MARGIN)), zero, importance);
         // From inside a bounding sphere, lights lie in every direction (and d may be zero).
         let inside: BVec4A = !d2.cmpgt(self.r2);
-        Vec4::select(inside, self.power / self.r2.max(Vec4::splat(f32::MIN_POSITIVE)), importance)
+        Vec4::select(inside, self.power_inside, importance)
     }
 }
 

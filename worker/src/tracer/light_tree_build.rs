@@ -124,6 +124,7 @@ impl Inner {
         cos_o: Vec4::ONE,
         sin_o: Vec4::ZERO,
         power: Vec4::ZERO,
+        power_inside: Vec4::ZERO,
         two_sided: Vec4::ZERO,
         child: [0; WIDTH],
         count: 0,
@@ -134,7 +135,7 @@ impl Inner {
         (self.r2[k], self.r[k]) = (b.r2, b.r2.sqrt());
         (self.wx[k], self.wy[k], self.wz[k]) = (b.w.x, b.w.y, b.w.z);
         (self.cos_o[k], self.sin_o[k]) = (b.cos_o, (1.0 - b.cos_o * b.cos_o).max(0.0).sqrt());
-        self.power[k] = b.power;
+        (self.power[k], self.power_inside[k]) = (b.power, b.power / b.r2.max(f32::MIN_POSITIVE));
         self.two_sided[k] = if b.two_sided { 1.0 } else { 0.0 };
         self.child[k] = child;
         self.count = self.count.max(k as u32 + 1);

@@ -1,0 +1,117 @@
+#!/usr/bin/env python3
+"""Where the light tree starts to pay: two light choices on two families of scenes.
+
+`LightTree::MIN_LIGHTS` (worker/src/tracer/light_tree.rs) decides from how many emissive
+triangles a scene chooses a light sample's triangle through the tree instead of by power. This
+script measures both choices on scenes that differ in that count:
+
+- `lamps-N`: the bundled `many-lights` scene with a grid of G × G lamps instead of 16 × 16
+  (N = 2G² triangles, the same 0.75 m pitch, room and occluders; even G only, so the occluders
+  stay between lamps);
+- `sphere-N`: the Cornell box lit by an emissive UV sphere of N triangles (6 cm radius, 15 cm
+  below the ceiling, the box light's power) instead of its quad: one compact light whose
+  facets face every way;
+- the bundled scenes with 4–24 emissive triangles (`textured`, `furnace`, `emitters-only`).
+
+It needs two builds of `tessera` that differ only in that constant, one that never builds the
+tree and one that always does:
+
+    sed -i 's/MIN_LIGHTS: usize = [0-9]*;/MIN_LIGHTS: usize = 1 << 30;/' worker/src/tracer/light_tree.rs
+    cargo build --release --bin tessera && cp target/release/tessera /tmp/power-tessera
+    sed -i 's/MIN_LIGHTS: usize = [0-9 <]*;/MIN_LIGHTS: usize = 1;/' worker/src/tracer/light_tree.rs
+    cargo build --release --bin tessera && cp target/release/tessera /tmp/tree-tessera
+    git checkout worker/src/tracer/light_tree.rs
+    python3 docs/tools/light_tree_study.py --power-bin /tmp/power-tessera --tree-bin /tmp/tree-tessera
+
+Each scene renders at 256×256, 64 spp, with the independent sampler (whose per-pixel variance
+gives an unbiased estimate of the image's relMSE, printed by `tessera render`), on all cores,
+`--rounds` times per binary, alternated; the time is the fastest round, the relMSE the same
+every round (same seed). The last column is the tree's relMSE·s over power's: below 1 the tree
+reaches a given quality sooner.
+"""
+import argparse
+import math
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.join(ROOT, "scenes"))
+import generate as G  # noqa: E402
+
+
+def cornell_sphere_light(segments: int, rings: int) -> dict:
+    g = G.Gltf("Cornell box lit by an emissive sphere")
+    mats = G.cornell_materials(g)
+    for obj in G.cornell_box_objects():
+        if obj["name"] != "light":
+            g.node(obj["name"], mesh=g.flat_mesh(obj["name"], obj["triangles"], mats[obj["material"]]))
+    radius = 0.06
+    pos, nrm, idx = G.uv_sphere(radius, segments, rings)
+    # The box light (130 × 105 mm, one-sided) and a sphere of radius r emit the same power at
+    # radiance L and L · (0.130 · 0.105) / (4 r²).
+    scale = (0.130 * 0.105) / (4.0 * radius ** 2)
+    e, s = G.radiance_to_emissive(tuple(c * scale for c in G.CORNELL_MATERIALS["light"]["radiance"]))
+    m = g.material(G.lambert("sphere_light", (0.78, 0.78, 0.78), e, s))
+    g.node("sphere_light", translation=(0.278, 0.40, 0.28), mesh=g.mesh("sphere_light", pos, nrm, idx, m))
+    c = G.CORNELL_CAMERA
+    g.camera(c["name"], math.radians(c["yfov_deg"]), c["position"], rotation=c["rotation"])
+    return g.finish()
+
+
+def lamp_grid(grid: int) -> dict:
+    saved = G.MANY_LIGHTS_GRID
+    G.MANY_LIGHTS_GRID = grid
+    try:
+        return G.scene_many_lights()
+    finally:
+        G.MANY_LIGHTS_GRID = saved
+
+
+def scenes(out: str) -> list[str]:
+    paths = []
+    for segments, rings in [(4, 3), (6, 3), (8, 3), (8, 5), (16, 5), (32, 9)]:
+        path = os.path.join(out, "sphere-%d.gltf" % (segments * (2 * rings - 2)))
+        G.write(cornell_sphere_light(segments, rings), path)
+        paths.append(path)
+    for grid in [2, 4, 6, 8, 10, 12, 16]:
+        path = os.path.join(out, "lamps-%d.gltf" % (2 * grid * grid))
+        G.write(lamp_grid(grid), path)
+        paths.append(path)
+    return paths + [os.path.join(ROOT, "scenes", s + ".gltf") for s in ("textured", "furnace", "emitters-only")]
+
+
+def render(binary: str, scene: str, out: str) -> tuple[float, float]:
+    cmd = [binary, "render", scene, "--spp", "64", "--sampler", "independent", "-o", os.path.join(out, "study.exr")]
+    text = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+    m = re.search(r"in ([0-9.]+) s .*estimated relMSE ([0-9.e+-]+)", text)
+    if not m:
+        sys.exit("no time or relMSE in the output of %s:\n%s" % (" ".join(cmd), text))
+    return float(m.group(1)), float(m.group(2))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--power-bin", required=True, help="tessera built to choose lights by power always")
+    ap.add_argument("--tree-bin", required=True, help="tessera built to use the light tree always")
+    ap.add_argument("--rounds", type=int, default=2)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as out:
+        print("| scene | power: s, relMSE | tree: s, relMSE | tree relMSE·s ÷ power's |")
+        print("|---|---:|---:|---:|")
+        for scene in scenes(out):
+            best = {}
+            for _ in range(args.rounds):
+                for name, binary in (("power", args.power_bin), ("tree", args.tree_bin)):
+                    t, e = render(binary, scene, out)
+                    best[name] = (min(t, best.get(name, (t, e))[0]), e)
+            (tp, ep), (tt, et) = best["power"], best["tree"]
+            name = os.path.basename(scene).removesuffix(".gltf")
+            print("| %s | %.2f, %.3e | %.2f, %.3e | **%.2f** |" % (name, tp, ep, tt, et, (tt * et) / (tp * ep)), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
