@@ -13,19 +13,15 @@ script measures both choices on scenes that differ in that count:
   facets face every way;
 - the bundled scenes with 4–24 emissive triangles (`textured`, `furnace`, `emitters-only`).
 
-It needs two builds of `tessera` that differ only in that constant, one that never builds the
-tree and one that always does:
+Each scene renders twice per round with the same binary, `--light-sampler power` and
+`--light-sampler tree` (the job setting that overrides the threshold):
 
-    sed -i 's/MIN_LIGHTS: usize = [0-9]*;/MIN_LIGHTS: usize = 1 << 30;/' worker/src/tracer/light_tree.rs
-    cargo build --release --bin tessera && cp target/release/tessera /tmp/power-tessera
-    sed -i 's/MIN_LIGHTS: usize = [0-9 <]*;/MIN_LIGHTS: usize = 1;/' worker/src/tracer/light_tree.rs
-    cargo build --release --bin tessera && cp target/release/tessera /tmp/tree-tessera
-    git checkout worker/src/tracer/light_tree.rs
-    python3 docs/tools/light_tree_study.py --power-bin /tmp/power-tessera --tree-bin /tmp/tree-tessera
+    cargo build --release --bin tessera
+    python3 docs/tools/light_tree_study.py [--tessera target/release/tessera] [--rounds 2]
 
 Each scene renders at 256×256, 64 spp, with the independent sampler (whose per-pixel variance
 gives an unbiased estimate of the image's relMSE, printed by `tessera render`), on all cores,
-`--rounds` times per binary, alternated; the time is the fastest round, the relMSE the same
+`--rounds` times per choice, alternated; the time is the fastest round, the relMSE the same
 every round (same seed). The last column is the tree's relMSE·s over power's: below 1 the tree
 reaches a given quality sooner.
 """
@@ -83,8 +79,9 @@ def scenes(out: str) -> list[str]:
     return paths + [os.path.join(ROOT, "scenes", s + ".gltf") for s in ("textured", "furnace", "emitters-only")]
 
 
-def render(binary: str, scene: str, out: str) -> tuple[float, float]:
-    cmd = [binary, "render", scene, "--spp", "64", "--sampler", "independent", "-o", os.path.join(out, "study.exr")]
+def render(binary: str, light_sampler: str, scene: str, out: str) -> tuple[float, float]:
+    cmd = [binary, "render", scene, "--spp", "64", "--sampler", "independent", "--light-sampler", light_sampler,
+           "-o", os.path.join(out, "study.exr")]
     text = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
     m = re.search(r"in ([0-9.]+) s .*estimated relMSE ([0-9.e+-]+)", text)
     if not m:
@@ -94,8 +91,7 @@ def render(binary: str, scene: str, out: str) -> tuple[float, float]:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--power-bin", required=True, help="tessera built to choose lights by power always")
-    ap.add_argument("--tree-bin", required=True, help="tessera built to use the light tree always")
+    ap.add_argument("--tessera", default=os.path.join(ROOT, "target", "release", "tessera"), help="the tessera binary")
     ap.add_argument("--rounds", type=int, default=2)
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as out:
@@ -104,8 +100,8 @@ def main() -> int:
         for scene in scenes(out):
             best = {}
             for _ in range(args.rounds):
-                for name, binary in (("power", args.power_bin), ("tree", args.tree_bin)):
-                    t, e = render(binary, scene, out)
+                for name in ("power", "tree"):
+                    t, e = render(args.tessera, name, scene, out)
                     best[name] = (min(t, best.get(name, (t, e))[0]), e)
             (tp, ep), (tt, et) = best["power"], best["tree"]
             name = os.path.basename(scene).removesuffix(".gltf")

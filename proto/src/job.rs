@@ -35,6 +35,11 @@ pub struct JobRequest {
     /// and reflections on smooth glass do not count); 0 turns it off, so paths run to `max_depth`. Any value gives the same expected image; lower is faster and
     /// noisier per sample.
     pub roulette_depth: Option<u32>,
+    /// How a light sample chooses among the scene's emissive triangles: `auto` (default: through
+    /// a light tree from 32 of them on, else in proportion to power), `power`, or `tree` (through
+    /// the tree whatever their number; a few lamps far apart are lit sooner so). Any choice
+    /// gives the same expected image.
+    pub light_sampler: Option<String>,
     /// Constant background radiance, linear RGB (default black).
     pub background: Option<[f32; 3]>,
     /// Higher runs first; equal priorities share workers fairly (default 0).
@@ -79,6 +84,9 @@ pub struct RenderParams {
     /// setting, leaves the worker's default.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub roulette_depth: Option<u32>,
+    /// `auto`, `power` or `tree`. None, from a coordinator that predates the setting, is `auto`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_sampler: Option<String>,
     pub background: [f32; 3],
     /// The glTF animation, by name or index; None plays the first one (if the scene has any).
     #[serde(default)]

@@ -18,10 +18,12 @@ For the llvm_ad_rgb variant Dr.Jit needs libLLVM, e.g. on Debian 12:
 Usage:
     python3 tests/reference/make_reference.py [--scene cornell-box] [--flat-shading] \
         [--variant llvm_ad_rgb] [--passes 8] [--spp 16384] [--chunk 1024] \
-        [--size 128] [--out tests/reference/SCENE-mitsuba.exr]
+        [--size 128] [--first-pass 0] [--out tests/reference/SCENE-mitsuba.exr]
 
 Seeds: chunk j of pass k renders with seed = 1000 * k + j, so every
-mi.render call uses a distinct seed and the K passes are independent.
+mi.render call uses a distinct seed and the K passes are independent. Passes
+are numbered from --first-pass, so a second reference with --first-pass 8 shares
+no seed with the default's passes 0..7 (to check a reference against another).
 """
 
 from __future__ import annotations
@@ -72,6 +74,7 @@ def main() -> int:
     ap.add_argument("--spp", type=int, default=16384, help="samples per pixel per pass")
     ap.add_argument("--chunk", type=int, default=1024, help="spp per mi.render call")
     ap.add_argument("--size", type=int, default=128)
+    ap.add_argument("--first-pass", type=int, default=0, help="number of the first pass (seeds 1000 * pass + chunk)")
     ap.add_argument("--out", help="default: tests/reference/SCENE-mitsuba.exr")
     args = ap.parse_args()
     assert args.spp % args.chunk == 0, "--spp must be a multiple of --chunk"
@@ -90,7 +93,7 @@ def main() -> int:
     nchunks = args.spp // args.chunk
     passes = []
     t0 = time.time()
-    for k in range(args.passes):
+    for k in range(args.first_pass, args.first_pass + args.passes):
         acc = np.zeros((args.size, args.size, 3), dtype=np.float64)
         for j in range(nchunks):
             seed = 1000 * k + j
@@ -107,7 +110,7 @@ def main() -> int:
     var_of_mean = stack.var(axis=0, ddof=1) / args.passes
     comment = (f"{name}: Mitsuba {mi.__version__} {mi.variant()} {desc['integrator']['type']} max_depth=-1; "
                f"K={args.passes} passes x "
-               f"{args.spp} spp (total {args.passes * args.spp} spp); seeds 1000*k+j; "
+               f"{args.spp} spp (total {args.passes * args.spp} spp); seeds 1000*k+j, k from {args.first_pass}; "
                f"RGB = mean, variance.* = sample variance of passes / K")
     write_exr(args.out, mean, var_of_mean, comment)
 

@@ -67,13 +67,13 @@ pub fn channel(pixels: &[PixelSums], c: usize) -> Vec<(f64, f64)> {
 
 /// Cornell-box render settings with independent samples, so the measured spread is a valid error bar.
 pub fn independent_settings(size: (u32, u32), seed: u64, estimator: tessera_worker::tracer::Estimator) -> tessera_worker::tracer::RenderSettings {
-    use tessera_worker::tracer::{RenderSettings, Roulette, integrator::PathSettings, sampler::SamplerKind};
+    use tessera_worker::tracer::{RenderSettings, integrator::PathSettings, sampler::SamplerKind};
     RenderSettings {
         width: size.0,
         height: size.1,
         seed,
         sampler: SamplerKind::Independent,
-        path: PathSettings { estimator, roulette: Roulette::default(), max_depth: 1024 },
+        path: PathSettings { estimator, ..PathSettings::default() },
         background: glam::Vec3::ZERO,
         camera: None,
     }

@@ -201,6 +201,7 @@ pub fn settings(size: u32) -> anyhow::Result<RenderSettings> {
         camera: None,
         max_depth: 1024,
         roulette_depth: None,
+        light_sampler: None,
         background: [0.0; 3],
         animation: None,
         fps: tessera_proto::job::DEFAULT_FPS,

@@ -40,6 +40,11 @@ pub struct JobArgs {
     /// Lower is faster per sample and noisier; the expected image is the same.
     #[arg(long, default_value_t = tessera_worker::tracer::integrator::DEFAULT_ROULETTE_DEPTH)]
     pub roulette_depth: u32,
+    /// How a light sample chooses among the emissive triangles: auto (through a light tree from
+    /// 32 of them on, else by power), power, or tree (always through the tree; a few lamps far
+    /// apart are lit sooner so). The expected image is the same.
+    #[arg(long, default_value = "auto")]
+    pub light_sampler: String,
     /// Tile edge in pixels: one unit of work is a tile over a batch of samples.
     #[arg(long, default_value_t = 64)]
     pub tile_size: u32,
@@ -78,6 +83,7 @@ impl JobArgs {
             batch_spp: Some(self.batch_spp),
             max_depth: Some(self.max_depth),
             roulette_depth: Some(self.roulette_depth),
+            light_sampler: Some(self.light_sampler.clone()),
             background: self.background,
             priority: Some(self.priority),
             frames: self.frames.map(|(start, end, step)| FrameRange { start, end, step: Some(step), fps: Some(self.fps) }),

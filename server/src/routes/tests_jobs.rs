@@ -54,6 +54,26 @@ async fn a_bright_background_is_listed_among_the_effects() {
     assert!(job["effects"].as_array().unwrap().contains(&json!("background")), "{job}");
 }
 
+/// `light_tree` is listed where the job's light samples go through a tree: by default from 32
+/// emissive triangles on (`many-lights`, not the Cornell box's quad), or as the job says.
+#[tokio::test]
+async fn the_light_sampler_decides_whether_the_light_tree_is_listed() {
+    let api = Api::new("job-light-sampler");
+    for (scene, sampler, listed) in [
+        ("cornell-box", None, false),
+        ("cornell-box", Some("tree"), true),
+        ("cornell-box", Some("power"), false),
+        ("many-lights", None, true),
+        ("many-lights", Some("auto"), true),
+        ("many-lights", Some("power"), false),
+    ] {
+        let job = api.submit(&job_body(json!({"scene": scene, "light_sampler": sampler}))).await;
+        let effects = job["effects"].as_array().unwrap();
+        assert_eq!(effects.contains(&json!("light_tree")), listed, "{scene} {sampler:?}: {effects:?}");
+        assert!(effects.contains(&json!("area_lights")), "{scene}: {effects:?}");
+    }
+}
+
 /// One test per invalid setting: 400 problem+json naming the field and saying what is wrong,
 /// and nothing queued.
 macro_rules! rejects {
@@ -83,6 +103,7 @@ rejects!(negative_time_limit_is_refused, {"spp": null, "time_limit_s": -5.0}, "t
 rejects!(huge_time_limit_is_refused, {"time_limit_s": 1e8}, "time_limit_s", ["time_limit_s", "(0, 1e7]"]);
 rejects!(unknown_estimator_is_refused, {"estimator": "magic"}, "estimator", ["\"magic\"", "naive, bsdf, light, mis"]);
 rejects!(unknown_sampler_is_refused, {"sampler": "halton"}, "sampler", ["halton", "sobol"]);
+rejects!(unknown_light_sampler_is_refused, {"light_sampler": "bvh"}, "light_sampler", ["\"bvh\"", "auto, power, tree"]);
 rejects!(tile_size_4_is_refused, {"tile_size": 4}, "tile_size", ["tile_size must be in 8..=1024", "got 4"]);
 rejects!(batch_spp_0_is_refused, {"batch_spp": 0}, "batch_spp", ["batch_spp must be in 1..=4096", "got 0"]);
 rejects!(max_depth_0_is_refused, {"max_depth": 0}, "max_depth", ["max_depth must be in 1..=65536", "got 0"]);

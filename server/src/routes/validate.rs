@@ -4,7 +4,7 @@ use crate::scenes::SceneMeta;
 use crate::scheduler::JobConfig;
 use tessera_proto::job::DEFAULT_FPS;
 use tessera_proto::{FrameRange, JobRequest, RenderParams};
-use tessera_worker::tracer::Estimator;
+use tessera_worker::tracer::{Estimator, LightSampler};
 use tessera_worker::tracer::integrator::DEFAULT_ROULETTE_DEPTH;
 use tessera_worker::tracer::sampler::SamplerKind;
 
@@ -62,6 +62,7 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
     let batch_spp = in_range("batch_spp", req.batch_spp.unwrap_or(16), 1, 4096)?;
     let max_depth = in_range("max_depth", req.max_depth.unwrap_or(1024), 1, 65536)?;
     let roulette_depth = in_range("roulette_depth", req.roulette_depth.unwrap_or(DEFAULT_ROULETTE_DEPTH), 0, 65536)?;
+    let light_sampler: LightSampler = req.light_sampler.as_deref().unwrap_or("auto").parse().map_err(|e: String| AppError::field("light_sampler", e))?;
     let background = req.background.unwrap_or([0.0; 3]);
     if background.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
         return Err(AppError::field("background", "background must be three finite numbers ≥ 0"));
@@ -76,8 +77,12 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
     let mut effects = scene.effects.clone();
     if background.iter().any(|c| *c > 0.0) {
         effects.push("background".into());
-        effects.sort();
     }
+    effects.retain(|e| e != "light_tree");
+    if uses_light_tree(light_sampler, &scene.effects) {
+        effects.push("light_tree".into());
+    }
+    effects.sort();
     let params = RenderParams {
         width,
         height,
@@ -87,6 +92,7 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
         camera: req.camera.clone(),
         max_depth,
         roulette_depth: Some(roulette_depth),
+        light_sampler: Some(light_sampler.name().into()),
         background,
         animation: req.animation.clone(),
         fps,
@@ -110,6 +116,17 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
 }
 
 /// The frame numbers of a `frames` range, and its fps. `pixels` and `tiles` are per frame.
+/// Whether a job's light samples go through a light tree: the scene's effects say what `auto`
+/// does (`light_tree`: enough emissive triangles), and whether there is any area light to choose.
+fn uses_light_tree(sampler: LightSampler, scene_effects: &[String]) -> bool {
+    let has = |name: &str| scene_effects.iter().any(|e| e == name);
+    match sampler {
+        LightSampler::Auto => has("light_tree"),
+        LightSampler::Power => false,
+        LightSampler::Tree => has("area_lights"),
+    }
+}
+
 fn frames(range: Option<&FrameRange>, pixels: u64, tiles: u64, time_limited: bool) -> Result<(Vec<u32>, f64), AppError> {
     let Some(r) = range else { return Ok((vec![0], DEFAULT_FPS)) };
     let step = r.step.unwrap_or(1);

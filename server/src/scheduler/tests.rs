@@ -7,7 +7,7 @@ pub(super) fn config(id: &str, spp: u32, priority: i32) -> JobConfig {
     JobConfig {
         id: id.into(),
         scene_id: "s".into(),
-        params: RenderParams { width: 10, height: 6, seed: 1, estimator: "mis".into(), sampler: "sobol".into(), camera: None, max_depth: 8, roulette_depth: None, background: [0.0; 3], animation: None, fps: tessera_proto::job::DEFAULT_FPS },
+        params: RenderParams { width: 10, height: 6, seed: 1, estimator: "mis".into(), sampler: "sobol".into(), camera: None, max_depth: 8, roulette_depth: None, light_sampler: None, background: [0.0; 3], animation: None, fps: tessera_proto::job::DEFAULT_FPS },
         spp,
         spp_given: true,
         noise_target: None,

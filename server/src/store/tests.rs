@@ -15,7 +15,7 @@ fn record(upto: u32) -> JobRecord {
         cfg: JobConfig {
             id: "j1".into(),
             scene_id: "s".into(),
-            params: RenderParams { width: 2, height: 1, seed: 1, estimator: "mis".into(), sampler: "sobol".into(), camera: None, max_depth: 8, roulette_depth: None, background: [0.0; 3], animation: None, fps: tessera_proto::job::DEFAULT_FPS },
+            params: RenderParams { width: 2, height: 1, seed: 1, estimator: "mis".into(), sampler: "sobol".into(), camera: None, max_depth: 8, roulette_depth: None, light_sampler: None, background: [0.0; 3], animation: None, fps: tessera_proto::job::DEFAULT_FPS },
             spp: 8,
             spp_given: true,
             noise_target: None,

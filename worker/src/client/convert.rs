@@ -1,7 +1,7 @@
 //! Between the wire types of `tessera_proto` and the tracer's own (the tracer knows no proto).
 use crate::tracer::integrator::PathSettings;
 use crate::tracer::sampler::SamplerKind;
-use crate::tracer::{Estimator, RenderSettings, Roulette, Tile, TileSums};
+use crate::tracer::{Estimator, LightSampler, RenderSettings, Roulette, Tile, TileSums};
 use glam::Vec3;
 use std::str::FromStr;
 use tessera_proto::{PartialSums, RenderParams, TileRect, WirePixel};
@@ -23,6 +23,8 @@ pub fn to_wire(sums: &TileSums, samples: [u32; 2]) -> PartialSums {
 pub fn render_settings(params: &RenderParams) -> Result<RenderSettings, String> {
     let estimator = Estimator::from_str(&params.estimator)?;
     let sampler = SamplerKind::from_str(&params.sampler).map_err(|e| e.to_string())?;
+    // None: a coordinator that predates the setting, whose jobs all chose automatically.
+    let light_sampler = params.light_sampler.as_deref().map_or(Ok(LightSampler::Auto), LightSampler::from_str)?;
     if params.width == 0 || params.height == 0 {
         return Err(format!("image size {}×{} is empty", params.width, params.height));
     }
@@ -34,7 +36,12 @@ pub fn render_settings(params: &RenderParams) -> Result<RenderSettings, String> 
         height: params.height,
         seed: params.seed,
         sampler,
-        path: PathSettings { estimator, roulette: params.roulette_depth.map_or_else(Roulette::default, Roulette::from_depth), max_depth: params.max_depth },
+        path: PathSettings {
+            estimator,
+            roulette: params.roulette_depth.map_or_else(Roulette::default, Roulette::from_depth),
+            max_depth: params.max_depth,
+            light_sampler,
+        },
         background: Vec3::from_array(params.background),
         camera: params.camera.clone(),
     })
@@ -59,6 +66,7 @@ mod tests {
             camera: Some("Camera".into()),
             max_depth: 12,
             roulette_depth: Some(7),
+            light_sampler: Some("tree".into()),
             background: [0.5, 0.25, 0.0],
             animation: None,
             fps: tessera_proto::job::DEFAULT_FPS,
@@ -70,7 +78,7 @@ mod tests {
         let s = render_settings(&params()).unwrap();
         assert_eq!((s.width, s.height, s.seed), (64, 48, 7));
         assert_eq!(s.sampler, SamplerKind::Independent);
-        assert_eq!(s.path, PathSettings { estimator: Estimator::Bsdf, roulette: Roulette::Throughput { min_depth: 7 }, max_depth: 12 });
+        assert_eq!(s.path, PathSettings { estimator: Estimator::Bsdf, roulette: Roulette::Throughput { min_depth: 7 }, max_depth: 12, light_sampler: LightSampler::Tree });
         assert_eq!(s.background, Vec3::new(0.5, 0.25, 0.0));
         assert_eq!(s.camera.as_deref(), Some("Camera"));
     }
@@ -84,10 +92,21 @@ mod tests {
     }
 
     #[test]
+    fn every_light_sampler_maps_and_absent_is_auto() {
+        for l in LightSampler::ALL {
+            let s = render_settings(&RenderParams { light_sampler: Some(l.name().into()), ..params() }).unwrap();
+            assert_eq!(s.path.light_sampler, l);
+        }
+        let old = render_settings(&RenderParams { light_sampler: None, ..params() }).unwrap();
+        assert_eq!(old.path.light_sampler, LightSampler::Auto);
+    }
+
+    #[test]
     fn render_settings_refuses_bad_params() {
         for (p, why) in [
             (RenderParams { estimator: "magic".into(), ..params() }, "estimator"),
             (RenderParams { sampler: "halton".into(), ..params() }, "sampler"),
+            (RenderParams { light_sampler: Some("bvh".into()), ..params() }, "light sampler"),
             (RenderParams { width: 0, ..params() }, "empty"),
             (RenderParams { background: [f32::NAN, 0.0, 0.0], ..params() }, "background"),
         ] {

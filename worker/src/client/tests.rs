@@ -69,6 +69,7 @@ fn params(width: u32, height: u32) -> RenderParams {
         camera: None,
         max_depth: 64,
         roulette_depth: None,
+        light_sampler: None,
         background: [0.0; 3],
         animation: None,
         fps: tessera_proto::job::DEFAULT_FPS,

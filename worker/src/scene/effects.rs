@@ -20,7 +20,7 @@
 //! The job adds `background` when it sets a non-black background.
 use crate::tracer::camera::Camera;
 use crate::tracer::effects::Effects;
-use crate::tracer::light::{Light, LightTree};
+use crate::tracer::light::{Light, LightSampler};
 use crate::tracer::material::Material;
 use crate::tracer::scene::Mesh;
 
@@ -34,7 +34,7 @@ pub fn of(mesh: &Mesh, materials: &[Material], cameras: &[Camera], lights: &[Lig
         let m = &materials[mesh.material[t] as usize];
         m.is_emissive() && Light::triangle(t as u32, &mesh.positions[t], m.emission, m.double_sided).is_some()
     };
-    if (0..mesh.len()).filter(|&t| emits(t)).count() >= LightTree::MIN_LIGHTS {
+    if LightSampler::Auto.uses_tree((0..mesh.len()).filter(|&t| emits(t)).count()) {
         e = e | Effects::LIGHT_TREE;
     }
     if cameras.iter().any(Camera::has_depth_of_field) {

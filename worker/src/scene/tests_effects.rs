@@ -60,7 +60,8 @@ fn every_bundled_scene_reports_the_effects_of_the_scene_it_builds() {
         let built = parsed.build();
         let cameras = built.cameras.iter().fold(built.effects, |e, c| if c.has_depth_of_field() { e | Effects::DEPTH_OF_FIELD } else { e });
         assert_eq!(cameras.names(), reported, "{name}");
-        assert_eq!(built.light_tree.is_some(), reported.contains(&"light_tree".to_string()), "{name}");
+        let uses_tree = built.light_tree_for(crate::tracer::LightSampler::Auto).is_some();
+        assert_eq!(uses_tree, reported.contains(&"light_tree".to_string()), "{name}");
     }
 }
 

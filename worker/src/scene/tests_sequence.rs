@@ -3,7 +3,7 @@
 use super::*;
 use crate::tracer::integrator::PathSettings;
 use crate::tracer::sampler::{SamplerKind, frame_seed};
-use crate::tracer::{Estimator, RenderSettings, Roulette, Tile, TileSums, render_tile};
+use crate::tracer::{RenderSettings, Tile, TileSums, render_tile};
 
 const FPS: f64 = 24.0;
 
@@ -18,7 +18,7 @@ fn render(scene: &Scene, frame: u32) -> TileSums {
         height: 48,
         seed: frame_seed(5, frame),
         sampler: SamplerKind::Sobol,
-        path: PathSettings { estimator: Estimator::Mis, roulette: Roulette::default(), max_depth: 8 },
+        path: PathSettings { max_depth: 8, ..PathSettings::default() },
         background: glam::Vec3::ZERO,
         camera: None,
     };

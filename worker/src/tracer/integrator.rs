@@ -22,7 +22,7 @@
 //! emission found after it counts in full for every estimator.
 use crate::tracer::bsdf::{Bsdf, BsdfSample};
 use crate::tracer::effects::{AllEffects, EffectSet};
-use crate::tracer::light::{LightSet, Target};
+use crate::tracer::light::{LightSampler, LightSet, Target};
 use crate::tracer::ray::{Ray, SHADOW_EPSILON};
 use crate::tracer::ray_log::RayLog;
 pub use crate::tracer::roulette::{DEFAULT_ROULETTE_DEPTH, Roulette};
@@ -70,11 +70,14 @@ pub struct PathSettings {
     pub roulette: Roulette,
     /// Most scattering events per path: a safety cap, not a bias knob (default 1024).
     pub max_depth: u32,
+    /// How light samples choose among the area lights (default: through the tree from
+    /// [`LightTree::MIN_LIGHTS`](crate::tracer::light::LightTree::MIN_LIGHTS) of them).
+    pub light_sampler: LightSampler,
 }
 
 impl Default for PathSettings {
     fn default() -> PathSettings {
-        PathSettings { estimator: Estimator::Mis, roulette: Roulette::default(), max_depth: 1024 }
+        PathSettings { estimator: Estimator::Mis, roulette: Roulette::default(), max_depth: 1024, light_sampler: LightSampler::Auto }
     }
 }
 
@@ -110,7 +113,7 @@ struct Bounce {
 
 impl<'a> Integrator<'a> {
     pub fn new(scene: &'a Scene, background: Vec3, settings: PathSettings) -> Integrator<'a> {
-        let lights = LightSet::with_tree(&scene.lights, scene.light_tree.as_ref(), background, scene.bounds_radius)
+        let lights = LightSet::with_tree(&scene.lights, scene.light_tree_for(settings.light_sampler), background, scene.bounds_radius)
             .with_textures(&scene.textures);
         Integrator { scene, lights, settings, ray_log: None }
     }

@@ -44,7 +44,7 @@ pub(crate) fn settings(estimator: Estimator, roulette: Roulette, size: u32, back
         height: size,
         seed: 7,
         sampler: SamplerKind::Independent,
-        path: PathSettings { estimator, roulette, max_depth: 1024 },
+        path: PathSettings { estimator, roulette, ..PathSettings::default() },
         background,
         camera: None,
     }
@@ -96,6 +96,12 @@ fn white_furnace_every_estimator_with_and_without_roulette() {
             assert_within_4_sigma(&format!("{est:?} {rr:?}"), got, expected);
         }
     }
+    // Its 12 emitting faces chosen through a light tree (from inside every bounding sphere).
+    for est in [Estimator::Light, Estimator::Mis] {
+        let mut s = settings(est, Roulette::default(), 8, Vec3::ZERO);
+        s.path.light_sampler = LightSampler::Tree;
+        assert_within_4_sigma(&format!("{est:?} through the tree"), pooled(&render(&scene, &s, 64)), expected);
+    }
 }
 
 #[test]
@@ -144,6 +150,17 @@ fn small_quad_light_irradiance_matches_the_polygon_formula() {
         let got = pooled(&render(&scene, &settings(est, Roulette::default(), 4, Vec3::ZERO), spp));
         assert_within_4_sigma(&format!("{est:?}"), got, expected);
     }
+    for (est, sampler) in [Estimator::Light, Estimator::Mis].into_iter().flat_map(|e| [(e, LightSampler::Power), (e, LightSampler::Tree)]) {
+        let mut s = settings(est, Roulette::default(), 4, Vec3::ZERO);
+        s.path.light_sampler = sampler;
+        assert_within_4_sigma(&format!("{est:?} {sampler:?}"), pooled(&render(&scene, &s, 256)), expected);
+    }
+    let with = |sampler| {
+        let mut s = settings(Estimator::Light, Roulette::default(), 4, Vec3::ZERO);
+        s.path.light_sampler = sampler;
+        render(&scene, &s, 16)
+    };
+    assert_ne!(with(LightSampler::Power), with(LightSampler::Tree), "the job's light sampler reaches the light samples");
 }
 
 #[test]

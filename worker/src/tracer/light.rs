@@ -35,7 +35,7 @@ use std::f32::consts::PI;
 
 #[path = "light_tree.rs"]
 mod tree;
-pub use tree::LightTree;
+pub use tree::{LightSampler, LightTree};
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Light {

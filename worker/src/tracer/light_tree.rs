@@ -1,12 +1,14 @@
 //! # LightTree — choosing among many area lights by what each can give a point
 //!
-//! A scene's emissive triangles in a tree of bounds, for scenes with at least
-//! [`LightTree::MIN_LIGHTS`] of them. Below that, [`LightSet`](super::LightSet) picks lights in
-//! proportion to their power alone: a handful of lights each get samples anyway, and a walk
-//! down a tree can cost more than the choice it improves (a 12-triangle emissive enclosure,
-//! `furnace`, takes 1.3× the relMSE·s through the tree). From 16 emissive triangles on, lamps
-//! apart and a tessellated sphere light both reached a given quality sooner through the tree
-//! (docs/tools/light_tree_study.py, docs/performance.md session 42); 32 is the threshold.
+//! A scene's emissive triangles in a tree of bounds. A light sample chooses through it in scenes
+//! with at least [`LightTree::MIN_LIGHTS`] of them (job setting `light_sampler`: `auto`, the
+//! default; `tree` always, `power` never: [`LightSampler`]). Below that, [`LightSet`](super::LightSet)
+//! picks lights in proportion to their power alone: a handful of lights each get samples
+//! anyway, and a walk down a tree can cost more than the choice it improves (a 12-triangle
+//! emissive enclosure, `furnace`, takes 1.23× the relMSE·s through the tree). From 16 emissive
+//! triangles on, lamps apart and a tessellated sphere light both reached a given quality sooner
+//! through the tree (docs/tools/light_tree_study.py, docs/performance.md session 42); 32 is the
+//! threshold.
 //!
 //! Power alone fails where lights are many and spread out (a field of lamps, a lit window
 //! grid, an emissive mesh): a point is lit by the few lights near it and facing it, but is
@@ -40,6 +42,7 @@
 use super::Light;
 use crate::tracer::sampler::ONE_MINUS_EPSILON;
 use glam::{BVec4A, Vec3, Vec4};
+use std::str::FromStr;
 
 /// The tree over a scene's leading [`Light::Triangle`] lights.
 #[derive(Clone, Debug)]
@@ -89,17 +92,61 @@ const COS_MARGIN: f32 = 1e-4;
 /// or one the margin kept), so its importance stays positive.
 const COS_FLOOR: f32 = 1e-4;
 
+/// How a light sample chooses among a scene's area lights (job setting `light_sampler`). Every
+/// choice gives the same expected image; they differ in noise and in time per sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightSampler {
+    /// Through the tree from [`LightTree::MIN_LIGHTS`] area lights on, else by power.
+    #[default]
+    Auto,
+    /// In proportion to power alone (as Mitsuba 3 does).
+    Power,
+    /// Through the tree whenever the scene has area lights: a few lamps far apart are lit
+    /// sooner so (docs/performance.md, session 42).
+    Tree,
+}
+
+impl LightSampler {
+    pub const ALL: [LightSampler; 3] = [LightSampler::Auto, LightSampler::Power, LightSampler::Tree];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            LightSampler::Auto => "auto",
+            LightSampler::Power => "power",
+            LightSampler::Tree => "tree",
+        }
+    }
+
+    /// Whether a scene with `area_lights` emissive triangles chooses through its tree.
+    pub fn uses_tree(self, area_lights: usize) -> bool {
+        match self {
+            LightSampler::Auto => area_lights >= LightTree::MIN_LIGHTS,
+            LightSampler::Power => false,
+            LightSampler::Tree => area_lights > 0,
+        }
+    }
+}
+
+impl FromStr for LightSampler {
+    type Err = String;
+    fn from_str(s: &str) -> Result<LightSampler, String> {
+        LightSampler::ALL
+            .into_iter()
+            .find(|l| l.name() == s)
+            .ok_or_else(|| format!("unknown light sampler {s:?} (expected one of auto, power, tree)"))
+    }
+}
+
 impl LightTree {
-    /// Scenes with fewer area lights than this choose by power alone. The smallest power of two
+    /// Scenes with fewer area lights than this choose by power alone unless told otherwise. The smallest power of two
     /// at which every scene family measured gains (session 42: relMSE·s through the tree 0.26×
-    /// on 16 lamps, 0.83× on a 32-facet sphere light); the bundled scenes have at most 24.
+    /// on 16 lamps, 0.81× on a 32-facet sphere light); the bundled scenes have at most 24.
     pub const MIN_LIGHTS: usize = 32;
 
-    /// A tree over the leading triangle lights of `lights`, if there are at least
-    /// [`LightTree::MIN_LIGHTS`] of them.
+    /// A tree over the leading triangle lights of `lights`, if there are any.
     pub fn over(lights: &[Light]) -> Option<LightTree> {
         let count = lights.iter().take_while(|l| matches!(l, Light::Triangle { .. })).count();
-        (count >= Self::MIN_LIGHTS).then(|| LightTree::build(&lights[..count]))
+        (count > 0).then(|| LightTree::build(&lights[..count]))
     }
 
     /// Lights in the tree: `lights[..len]` of the set it was built over.

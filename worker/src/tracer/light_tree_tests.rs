@@ -51,12 +51,20 @@ fn receivers(rng: &mut Rng, count: usize) -> Vec<(Vec3, Vec3)> {
 }
 
 #[test]
-fn small_sets_choose_by_power_and_large_ones_get_a_tree_over_their_triangles() {
-    assert!(LightTree::over(&scattered(LightTree::MIN_LIGHTS - 1, 1)).is_none());
-    let mut lights = scattered(LightTree::MIN_LIGHTS, 1);
+fn small_sets_choose_by_power_unless_told_and_the_tree_holds_the_triangles_only() {
+    let auto = LightSampler::Auto;
+    assert!(!auto.uses_tree(LightTree::MIN_LIGHTS - 1) && auto.uses_tree(LightTree::MIN_LIGHTS));
+    assert!(LightSampler::Tree.uses_tree(1) && !LightSampler::Tree.uses_tree(0));
+    assert!(!LightSampler::Power.uses_tree(1 << 20));
+    for l in LightSampler::ALL {
+        assert_eq!(l.name().parse::<LightSampler>(), Ok(l));
+    }
+    assert!("bvh".parse::<LightSampler>().unwrap_err().contains("auto, power, tree"));
+    let mut lights = scattered(3, 1);
     lights.push(Light::Point { position: Vec3::ZERO, intensity: Vec3::ONE });
     let tree = LightTree::over(&lights).expect("a tree");
-    assert_eq!(tree.len(), LightTree::MIN_LIGHTS, "the point light is not in the tree");
+    assert_eq!(tree.len(), 3, "the point light is not in the tree");
+    assert!(LightTree::over(&lights[3..]).is_none(), "no area lights, no tree");
 }
 
 #[test]

@@ -34,3 +34,4 @@ pub use effects::{Effects, KernelBits};
 pub use render::{RenderSettings, render_tile, render_tile_cancellable, render_tile_kernel, render_tile_logged};
 pub use rows::RowQueue;
 pub use scene::Scene;
+pub use light::LightSampler;

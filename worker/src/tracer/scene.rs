@@ -5,7 +5,7 @@
 use crate::tracer::accel::{Accel, BvhKind, Faces, PARALLEL_GRAIN};
 use crate::tracer::camera::Camera;
 use crate::tracer::effects::Effects;
-use crate::tracer::light::{EmissiveTexture, Light, LightTree};
+use crate::tracer::light::{EmissiveTexture, Light, LightSampler, LightTree};
 use crate::tracer::material::Material;
 use crate::tracer::texture::Texture;
 use glam::Vec3;
@@ -21,8 +21,9 @@ pub struct Scene {
     pub cameras: Vec<Camera>,
     /// Area lights (one per emissive triangle of non-zero area) followed by punctual lights.
     pub lights: Vec<Light>,
-    /// The area lights (`lights[..tree.len()]`) in a tree, when there are many
-    /// ([`LightTree::MIN_LIGHTS`]): light samples then favour the lights near a point.
+    /// The area lights (`lights[..tree.len()]`) in a tree, when there are any. Light samples
+    /// choose through it (favouring the lights near a point) as the job's [`LightSampler`]
+    /// says: [`Scene::light_tree_for`].
     pub light_tree: Option<LightTree>,
     /// Triangle → index in `lights`, or `NO_LIGHT`.
     pub tri_light: Vec<u32>,
@@ -100,10 +101,15 @@ impl Scene {
         mesh.material.iter().for_each(|&m| used[m as usize] = true);
         let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
         let mut effects = Effects::analyse(used_materials, &lights);
-        if light_tree.is_some() {
+        if light_tree.as_ref().is_some_and(|t| LightSampler::Auto.uses_tree(t.len())) {
             effects = effects | Effects::LIGHT_TREE;
         }
         Scene { mesh, materials, textures, cameras, lights, light_tree, tri_light, face_normals, accel, bounds_centre, bounds_radius, effects }
+    }
+
+    /// The tree a job's light samples choose through, if its `sampler` uses one here.
+    pub fn light_tree_for(&self, sampler: LightSampler) -> Option<&LightTree> {
+        self.light_tree.as_ref().filter(|t| sampler.uses_tree(t.len()))
     }
 
     /// The effects of a render through `camera` with the job's `background`.

@@ -43,7 +43,7 @@ impl Config {
             height: size,
             seed,
             sampler: self.sampler,
-            path: PathSettings { estimator: self.estimator, roulette, max_depth: PathSettings::default().max_depth },
+            path: PathSettings { estimator: self.estimator, roulette, ..PathSettings::default() },
             background: glam::Vec3::ZERO,
             camera: None,
         }
