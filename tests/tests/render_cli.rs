@@ -29,6 +29,7 @@ fn render_writes_an_exr_with_every_layer_and_a_preview() {
     let get = |k: &str| meta.iter().find(|(n, _)| n == k).map(|(_, v)| v.clone());
     assert_eq!(get("tessera.spp"), Some(MetaValue::Double(8.0)));
     assert!(matches!(get("tessera.estimator"), Some(MetaValue::Text(ref s)) if s == "mis"));
+    assert!(matches!(get("tessera.light_sampler"), Some(MetaValue::Text(ref s)) if s == "auto"));
     assert!(get("tessera.render_time_s").is_some());
     assert_eq!(get("tessera.renderers"), Some(MetaValue::Text(renderer_id(None))), "the one renderer, as `--version` names it");
     let preview = image::open(&png).expect("preview decodes");
@@ -37,9 +38,10 @@ fn render_writes_an_exr_with_every_layer_and_a_preview() {
 
 #[test]
 fn render_refuses_bad_arguments_with_a_clear_message() {
-    let cases: [(&[&str], &str); 4] = [
+    let cases: [(&[&str], &str); 5] = [
         (&["render", "no-such-scene"], "neither a file nor a bundled scene"),
         (&["render", "cornell-box", "--estimator", "magic"], "unknown estimator"),
+        (&["render", "cornell-box", "--light-sampler", "bvh"], "unknown light sampler"),
         (&["render", "cornell-box", "--spp", "0"], "spp must be in 1..="),
         (&["render", "cornell-box", "--camera", "Nope"], "no camera named"),
     ];

@@ -54,6 +54,7 @@ fn exr_meta(job: &JobRun, index: usize, now: u64) -> Vec<(String, MetaValue)> {
         ("tessera.seed".into(), MetaValue::Text(p.seed.to_string())),
         ("tessera.estimator".into(), MetaValue::Text(p.estimator.clone())),
         ("tessera.sampler".into(), MetaValue::Text(p.sampler.clone())),
+        ("tessera.light_sampler".into(), MetaValue::Text(p.light_sampler.clone().unwrap_or_else(|| "auto".into()))),
         ("tessera.effects".into(), MetaValue::Text(job.cfg.effects.join(","))),
         // The frame's own: an animation's frame may be written while later frames still render.
         ("tessera.dropped_samples".into(), MetaValue::Text(job.frame_dropped(index).to_string())),
