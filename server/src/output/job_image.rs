@@ -1,11 +1,12 @@
 //! One frame of a job as an image: its merged sums and the EXR header attributes that say how
-//! it was made (`tessera.*`: job, scene, spp, seed, estimator, sampler, effects, noise, the
+//! it was made (`tessera.*`: job, scene, spp, seed, estimator, sampler, light sampler, effects, noise, the
 //! renderers whose samples it holds, and for animations the frame, its time, fps and animation).
 //! The figures are the frame's as it is written; the render time and renderers are the job's
 //! at that moment (a frame completed early is written while later frames still render).
 use super::{ImageLayers, MetaValue};
 use crate::image;
 use crate::scheduler::JobRun;
+use tessera_worker::tracer::LightSampler;
 
 /// A frame's layers (mean, variance of the mean, samples: 28 bytes a pixel, not the sums' 64)
 /// and metadata, taken under the scheduler lock so that encoding (tens of milliseconds and up)
@@ -54,7 +55,7 @@ fn exr_meta(job: &JobRun, index: usize, now: u64) -> Vec<(String, MetaValue)> {
         ("tessera.seed".into(), MetaValue::Text(p.seed.to_string())),
         ("tessera.estimator".into(), MetaValue::Text(p.estimator.clone())),
         ("tessera.sampler".into(), MetaValue::Text(p.sampler.clone())),
-        ("tessera.light_sampler".into(), MetaValue::Text(p.light_sampler.clone().unwrap_or_else(|| "auto".into()))),
+        ("tessera.light_sampler".into(), MetaValue::Text(p.light_sampler.clone().unwrap_or_else(|| LightSampler::Auto.name().into()))),
         ("tessera.effects".into(), MetaValue::Text(job.cfg.effects.join(","))),
         // The frame's own: an animation's frame may be written while later frames still render.
         ("tessera.dropped_samples".into(), MetaValue::Text(job.frame_dropped(index).to_string())),

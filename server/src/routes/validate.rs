@@ -62,7 +62,7 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
     let batch_spp = in_range("batch_spp", req.batch_spp.unwrap_or(16), 1, 4096)?;
     let max_depth = in_range("max_depth", req.max_depth.unwrap_or(1024), 1, 65536)?;
     let roulette_depth = in_range("roulette_depth", req.roulette_depth.unwrap_or(DEFAULT_ROULETTE_DEPTH), 0, 65536)?;
-    let light_sampler: LightSampler = req.light_sampler.as_deref().unwrap_or("auto").parse().map_err(|e: String| AppError::field("light_sampler", e))?;
+    let light_sampler: LightSampler = req.light_sampler.as_deref().unwrap_or(LightSampler::Auto.name()).parse().map_err(|e: String| AppError::field("light_sampler", e))?;
     let background = req.background.unwrap_or([0.0; 3]);
     if background.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
         return Err(AppError::field("background", "background must be three finite numbers ≥ 0"));

@@ -50,6 +50,13 @@ pub(crate) fn settings(estimator: Estimator, roulette: Roulette, size: u32, back
     }
 }
 
+/// [`settings`] with the light chosen by `light_sampler`.
+fn settings_choosing(light_sampler: LightSampler, estimator: Estimator, size: u32) -> RenderSettings {
+    let mut s = settings(estimator, Roulette::default(), size, Vec3::ZERO);
+    s.path.light_sampler = light_sampler;
+    s
+}
+
 pub(crate) fn render(scene: &Scene, s: &RenderSettings, spp: u32) -> Vec<PixelSums> {
     render_tile(scene, s, s.full_frame(), 0..spp).expect("render").pixels
 }
@@ -98,8 +105,7 @@ fn white_furnace_every_estimator_with_and_without_roulette() {
     }
     // Its 12 emitting faces chosen through a light tree (from inside every bounding sphere).
     for est in [Estimator::Light, Estimator::Mis] {
-        let mut s = settings(est, Roulette::default(), 8, Vec3::ZERO);
-        s.path.light_sampler = LightSampler::Tree;
+        let s = settings_choosing(LightSampler::Tree, est, 8);
         assert_within_4_sigma(&format!("{est:?} through the tree"), pooled(&render(&scene, &s, 64)), expected);
     }
 }
@@ -151,15 +157,10 @@ fn small_quad_light_irradiance_matches_the_polygon_formula() {
         assert_within_4_sigma(&format!("{est:?}"), got, expected);
     }
     for (est, sampler) in [Estimator::Light, Estimator::Mis].into_iter().flat_map(|e| [(e, LightSampler::Power), (e, LightSampler::Tree)]) {
-        let mut s = settings(est, Roulette::default(), 4, Vec3::ZERO);
-        s.path.light_sampler = sampler;
+        let s = settings_choosing(sampler, est, 4);
         assert_within_4_sigma(&format!("{est:?} {sampler:?}"), pooled(&render(&scene, &s, 256)), expected);
     }
-    let with = |sampler| {
-        let mut s = settings(Estimator::Light, Roulette::default(), 4, Vec3::ZERO);
-        s.path.light_sampler = sampler;
-        render(&scene, &s, 16)
-    };
+    let with = |sampler| render(&scene, &settings_choosing(sampler, Estimator::Light, 4), 16);
     assert_ne!(with(LightSampler::Power), with(LightSampler::Tree), "the job's light sampler reaches the light samples");
 }
 
