@@ -36,9 +36,9 @@ pub struct JobRequest {
     /// noisier per sample.
     pub roulette_depth: Option<u32>,
     /// How a light sample chooses among the scene's emissive triangles: `auto` (default: through
-    /// a light tree from 32 of them on, else in proportion to power), `power`, or `tree` (through
-    /// the tree whatever their number; a few lamps far apart are lit sooner so). Any choice
-    /// gives the same expected image.
+    /// a light tree from 32 of them on, or fewer that differ in what they give the scene's
+    /// surfaces, such as lamps apart; else in proportion to power), `power`, or `tree` (through
+    /// the tree whatever their number). Any choice gives the same expected image.
     pub light_sampler: Option<String>,
     /// Constant background radiance, linear RGB (default black).
     pub background: Option<[f32; 3]>,

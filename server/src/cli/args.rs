@@ -41,8 +41,9 @@ pub struct JobArgs {
     #[arg(long, default_value_t = tessera_worker::tracer::integrator::DEFAULT_ROULETTE_DEPTH)]
     pub roulette_depth: u32,
     /// How a light sample chooses among the emissive triangles: auto (through a light tree from
-    /// 32 of them on, else by power), power, or tree (always through the tree; a few lamps far
-    /// apart are lit sooner so). The expected image is the same.
+    /// 32 of them on, or fewer that differ in what they give the scene's surfaces, such as lamps
+    /// apart; else by power), power, or tree (always through the tree). The expected image is
+    /// the same.
     #[arg(long, default_value = "auto")]
     pub light_sampler: String,
     /// Tile edge in pixels: one unit of work is a tile over a batch of samples.

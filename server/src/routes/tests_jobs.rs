@@ -54,8 +54,8 @@ async fn a_bright_background_is_listed_among_the_effects() {
     assert!(job["effects"].as_array().unwrap().contains(&json!("background")), "{job}");
 }
 
-/// `light_tree` is listed where the job's light samples go through a tree: by default from 32
-/// emissive triangles on (`many-lights`, not the Cornell box's quad), or as the job says.
+/// `light_tree` is listed where the job's light samples go through a tree: by default where it
+/// suits the scene (`many-lights`, not the Cornell box's quad), or as the job says.
 #[tokio::test]
 async fn the_light_sampler_decides_whether_the_light_tree_is_listed() {
     let api = Api::new("job-light-sampler");

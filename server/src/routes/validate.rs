@@ -117,7 +117,7 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
 
 /// The frame numbers of a `frames` range, and its fps. `pixels` and `tiles` are per frame.
 /// Whether a job's light samples go through a light tree: the scene's effects say what `auto`
-/// does (`light_tree`: enough emissive triangles), and whether there is any area light to choose.
+/// does (`light_tree`: `LightTree::suits` the scene), and whether there is any area light to choose.
 fn uses_light_tree(sampler: LightSampler, scene_effects: &[String]) -> bool {
     let has = |name: &str| scene_effects.iter().any(|e| e == name);
     match sampler {

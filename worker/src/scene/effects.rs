@@ -4,7 +4,7 @@
 //! | effect               | when                                                   |
 //! |----------------------|--------------------------------------------------------|
 //! | `area_lights`        | some triangle emits                                    |
-//! | `light_tree`         | at least 32 triangles emit: lights are chosen through a light tree |
+//! | `light_tree`         | `auto` chooses lights through a light tree: at least 32 triangles emit, or 2–31 that differ enough in what they give the scene's surfaces ([`LightTree::suits`](crate::tracer::light::LightTree::suits)) |
 //! | `point_lights`, `spot_lights`, `directional_lights` | `KHR_lights_punctual` lights |
 //! | `lambert`            | a material is purely diffuse (metallic 0, specular 0)  |
 //! | `ggx`                | a material has a microfacet specular layer or is metal |
@@ -20,21 +20,20 @@
 //! The job adds `background` when it sets a non-black background.
 use crate::tracer::camera::Camera;
 use crate::tracer::effects::Effects;
-use crate::tracer::light::{Light, LightSampler};
+use crate::tracer::light::{Light, LightTree};
 use crate::tracer::material::Material;
-use crate::tracer::scene::Mesh;
+use crate::tracer::scene::{Mesh, area_lights};
+use crate::tracer::texture::Texture;
 
-pub fn of(mesh: &Mesh, materials: &[Material], cameras: &[Camera], lights: &[Light]) -> Vec<String> {
+pub fn of(mesh: &Mesh, materials: &[Material], textures: &[Texture], cameras: &[Camera], lights: &[Light]) -> Vec<String> {
     let mut used = vec![false; materials.len()];
     mesh.material.iter().for_each(|&m| used[m as usize] = true);
     let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
     let mut e = Effects::analyse(used_materials, lights);
-    // The scene's area lights are made when it is built; count the triangles that will be.
-    let emits = |t: usize| {
-        let m = &materials[mesh.material[t] as usize];
-        m.is_emissive() && Light::triangle(t as u32, &mesh.positions[t], m.emission, m.double_sided).is_some()
-    };
-    if LightSampler::Auto.uses_tree((0..mesh.len()).filter(|&t| emits(t)).count()) {
+    // The scene's area lights are made when it is built; make them as it will, to judge them.
+    let (area_lights, _) = area_lights(mesh, materials, textures);
+    let scatters = |t: usize| materials[mesh.material[t] as usize].scatters();
+    if LightTree::suits(&area_lights, &mesh.positions, scatters) {
         e = e | Effects::LIGHT_TREE;
     }
     if cameras.iter().any(Camera::has_depth_of_field) {

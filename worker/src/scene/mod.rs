@@ -124,7 +124,7 @@ impl Parsed {
 
     /// The light-transport features this scene calls for (see [`effects`]).
     pub fn effects(&self) -> Vec<String> {
-        effects::of(&self.mesh, &self.materials, &self.cameras, &self.lights)
+        effects::of(&self.mesh, &self.materials, &self.textures, &self.cameras, &self.lights)
     }
 
     /// The file's animations, in file order (validated: see [`animation`]).

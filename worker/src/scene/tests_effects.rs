@@ -65,6 +65,50 @@ fn every_bundled_scene_reports_the_effects_of_the_scene_it_builds() {
     }
 }
 
+/// A 10 m white floor under 30 cm emissive squares facing down, 2.5 m up at `lamps` (x, z).
+fn lamps_over_a_floor(lamps: &[(f32, f32)]) -> String {
+    use base64::Engine;
+    let square = |x: f32, y: f32, z: f32, s: f32, down: bool| {
+        let [a, b, c, d] = [[x - s, y, z - s], [x + s, y, z - s], [x + s, y, z + s], [x - s, y, z + s]];
+        if down { [a, b, c, a, c, d] } else { [a, c, b, a, d, c] }
+    };
+    let mut points: Vec<[f32; 3]> = square(0.0, 0.0, 0.0, 5.0, false).to_vec();
+    lamps.iter().for_each(|&(x, z)| points.extend(square(x, 2.5, z, 0.15, true)));
+    let bin: Vec<u8> = points.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
+    let data = base64::engine::general_purpose::STANDARD.encode(&bin);
+    let lamp_vertices = points.len() - 6;
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0,1,2]}}],
+        "nodes":[{{"mesh":0}},{{"mesh":1}},{{"camera":0,"translation":[0,1,8]}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"material":0}}]}},{{"primitives":[{{"attributes":{{"POSITION":1}},"material":1}}]}}],
+        "materials":[{{"pbrMetallicRoughness":{{"baseColorFactor":[0.8,0.8,0.8,1],"metallicFactor":0}}}},
+                     {{"pbrMetallicRoughness":{{"baseColorFactor":[0,0,0,1],"metallicFactor":0}},"emissiveFactor":[1,1,1]}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":6,"type":"VEC3","min":[-5,0,-5],"max":[5,0,5]}},
+                     {{"bufferView":1,"componentType":5126,"count":{lamp_vertices},"type":"VEC3","min":[-9,2.5,-9],"max":[9,2.5,9]}}],
+        "bufferViews":[{{"buffer":0,"byteLength":72}},{{"buffer":0,"byteOffset":72,"byteLength":{}}}],
+        "buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{data}"}}],
+        "cameras":[{{"type":"perspective","perspective":{{"yfov":0.8,"znear":0.01}}}}]}}"#,
+        lamp_vertices * 12,
+        bin.len()
+    )
+}
+
+/// Below 32 emissive triangles, `auto` uses the tree where the lights differ in what they give
+/// the surfaces: four lamps apart over a floor (8 triangles) list `light_tree` and render
+/// through the tree; one lamp (2) does neither. The upload's listing is the built scene's.
+#[test]
+fn a_few_lamps_apart_choose_through_the_tree_and_one_lamp_does_not() {
+    for (lamps, tree) in [(&[(-3.0, -3.0), (3.0, -3.0), (-3.0, 3.0), (3.0, 3.0)][..], true), (&[(0.0, 0.0)][..], false)] {
+        let parsed = parse(lamps_over_a_floor(lamps).as_bytes(), None).unwrap();
+        let reported = parsed.effects();
+        let built = parsed.build();
+        assert_eq!(built.light_tree.as_ref().map(|t| t.len()), Some(2 * lamps.len()), "the scene holds a tree either way");
+        assert_eq!(reported.contains(&"light_tree".to_string()), tree, "{lamps:?}: {reported:?}");
+        assert_eq!(built.light_tree_for(crate::tracer::LightSampler::Auto).is_some(), tree, "{lamps:?}");
+        assert_eq!(built.effects.names(), reported);
+    }
+}
+
 #[test]
 fn the_textured_scene_binds_each_slot_in_its_colour_space_with_its_transform() {
     use crate::tracer::texture::UvTransform;

@@ -41,10 +41,11 @@ impl Effects {
     /// Not an effect but its absence: no material can scatter light, so a path needs no
     /// bounce (the camera sees emitters and black); reported as the depth limit "max_depth=0".
     pub const NO_SCATTERING: Effects = Effects(1 << 14);
-    /// So many area lights ([`LightTree::MIN_LIGHTS`](crate::tracer::light::LightTree::MIN_LIGHTS))
-    /// that light samples choose among them through the scene's light tree; fewer are chosen
-    /// by power, at no cost for the tree. Set where the tree is built (or, for a scene not yet
-    /// built, where its emissive triangles are counted), not by [`Effects::analyse`].
+    /// Area lights that the `auto` light sampler chooses among through the scene's light tree
+    /// (many, or a few that differ in what they give the surfaces:
+    /// [`LightTree::suits`](crate::tracer::light::LightTree::suits)); others are chosen by
+    /// power, at no cost for the tree. Set where the scene's lights are made (when it is built,
+    /// or, for a scene not yet built, by the same function), not by [`Effects::analyse`].
     pub const LIGHT_TREE: Effects = Effects(1 << 15);
     pub const NONE: Effects = Effects(0);
 

@@ -70,8 +70,8 @@ pub struct PathSettings {
     pub roulette: Roulette,
     /// Most scattering events per path: a safety cap, not a bias knob (default 1024).
     pub max_depth: u32,
-    /// How light samples choose among the area lights (default: through the tree from
-    /// [`LightTree::MIN_LIGHTS`](crate::tracer::light::LightTree::MIN_LIGHTS) of them).
+    /// How light samples choose among the area lights (default: through the tree where it
+    /// suits the scene, [`LightTree::suits`](crate::tracer::light::LightTree::suits)).
     pub light_sampler: LightSampler,
 }
 

@@ -12,8 +12,9 @@
 //! intensity 1 in the file gives radiance of order 1 in the image. Point, spot and directional
 //! lights are delta lights: they are reached only by light sampling, never by a BSDF ray.
 //! A [`LightSet`] picks lights in proportion to their power, so dim lights cost little; a scene
-//! with many area lights ([`LightTree::MIN_LIGHTS`]) picks among those through a [`LightTree`]
-//! instead, by what each can give the point being lit (`light_tree.rs`).
+//! with many area lights ([`LightTree::MIN_LIGHTS`]), or a few that differ in what they give
+//! its surfaces ([`LightTree::suits`]), picks among those through a [`LightTree`] instead, by
+//! what each can give the point being lit (`light_tree.rs`, `light_tree_auto.rs`).
 //!
 //! A triangle whose material has an `emissiveTexture` emits radiance × texture(uv): light
 //! sampling picks a point uniformly on the triangle and evaluates the texture exactly there,
@@ -35,7 +36,7 @@ use std::f32::consts::PI;
 
 #[path = "light_tree.rs"]
 mod tree;
-pub use tree::{LightSampler, LightTree};
+pub use tree::{LightSampler, LightTree, Spread};
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Light {

@@ -1,14 +1,15 @@
 //! # LightTree — choosing among many area lights by what each can give a point
 //!
-//! A scene's emissive triangles in a tree of bounds. A light sample chooses through it in scenes
-//! with at least [`LightTree::MIN_LIGHTS`] of them (job setting `light_sampler`: `auto`, the
-//! default; `tree` always, `power` never: [`LightSampler`]). Below that, [`LightSet`](super::LightSet)
-//! picks lights in proportion to their power alone: a handful of lights each get samples
-//! anyway, and a walk down a tree can cost more than the choice it improves (a 12-triangle
-//! emissive enclosure, `furnace`, takes 1.23× the relMSE·s through the tree). From 16 emissive
-//! triangles on, lamps apart and a tessellated sphere light both reached a given quality sooner
-//! through the tree (docs/tools/light_tree_study.py, docs/performance.md session 42); 32 is the
-//! threshold.
+//! A scene's emissive triangles in a tree of bounds. A light sample chooses through it where
+//! the tree suits the scene ([`LightTree::suits`], `light_tree_auto.rs`: from
+//! [`LightTree::MIN_LIGHTS`] of them on, or fewer that differ in what they give its surfaces;
+//! job setting `light_sampler`: `auto`, the default; `tree` always, `power` never:
+//! [`LightSampler`]). Elsewhere [`LightSet`](super::LightSet) picks lights in proportion to their
+//! power alone: a handful of lights alike each get samples anyway, and a walk down a tree can
+//! cost more than the choice it improves (a 12-triangle emissive enclosure, `furnace`, takes
+//! 1.23× the relMSE·s through the tree). From 16 emissive triangles on, lamps apart and a
+//! tessellated sphere light both reached a given quality sooner through the tree
+//! (docs/tools/light_tree_study.py, docs/performance.md sessions 42 and 43).
 //!
 //! Power alone fails where lights are many and spread out (a field of lamps, a lit window
 //! grid, an emissive mesh): a point is lit by the few lights near it and facing it, but is
@@ -96,7 +97,7 @@ const COS_FLOOR: f32 = 1e-4;
 /// choice gives the same expected image; they differ in noise and in time per sample.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum LightSampler {
-    /// Through the tree from [`LightTree::MIN_LIGHTS`] area lights on, else by power.
+    /// Through the tree where it suits the scene ([`LightTree::suits`]), else by power.
     #[default]
     Auto,
     /// In proportion to power alone (as Mitsuba 3 does).
@@ -117,12 +118,13 @@ impl LightSampler {
         }
     }
 
-    /// Whether a scene with `area_lights` emissive triangles chooses through its tree.
-    pub fn uses_tree(self, area_lights: usize) -> bool {
+    /// Whether a scene's light samples choose through its tree, if it has one: `suits` is
+    /// what `auto` does there ([`LightTree::suits`]).
+    pub fn uses_tree(self, suits: bool) -> bool {
         match self {
-            LightSampler::Auto => area_lights >= LightTree::MIN_LIGHTS,
+            LightSampler::Auto => suits,
             LightSampler::Power => false,
-            LightSampler::Tree => area_lights > 0,
+            LightSampler::Tree => true,
         }
     }
 }
@@ -138,7 +140,8 @@ impl FromStr for LightSampler {
 }
 
 impl LightTree {
-    /// Scenes with fewer area lights than this choose by power alone unless told otherwise. The smallest power of two
+    /// From this many area lights on, `auto` chooses through the tree without judging the
+    /// lights' spread (below, [`LightTree::suits`] judges it). The smallest power of two
     /// at which every scene family measured gains (session 42: relMSE·s through the tree 0.26×
     /// on 16 lamps, 0.81× on a 32-facet sphere light); the bundled scenes have at most 24.
     pub const MIN_LIGHTS: usize = 32;
@@ -292,8 +295,11 @@ fn sqrt(v: Vec4) -> Vec4 {
     v.sqrt()
 }
 
+#[path = "light_tree_auto.rs"]
+mod auto;
 #[path = "light_tree_build.rs"]
 mod build;
+pub use auto::Spread;
 
 #[cfg(test)]
 #[path = "light_tree_tests.rs"]

@@ -23,7 +23,8 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// The area lights (`lights[..tree.len()]`) in a tree, when there are any. Light samples
     /// choose through it (favouring the lights near a point) as the job's [`LightSampler`]
-    /// says: [`Scene::light_tree_for`].
+    /// says: [`Scene::light_tree_for`]; `auto` does where `effects` has `LIGHT_TREE`
+    /// ([`LightTree::suits`]).
     pub light_tree: Option<LightTree>,
     /// Triangle → index in `lights`, or `NO_LIGHT`.
     pub tri_light: Vec<u32>,
@@ -95,13 +96,15 @@ impl Scene {
         assert_eq!(face_normals.len(), mesh.len(), "one face normal per triangle");
         let (mut lights, tri_light) = area_lights(&mesh, &materials, &textures);
         let light_tree = LightTree::over(&lights);
+        let scatters = |t: usize| materials[mesh.material[t] as usize].scatters();
+        let suits_tree = LightTree::suits(&lights, &mesh.positions, scatters);
         lights.extend(punctual);
         let (bounds_centre, bounds_radius) = bounding_sphere(solid_box);
         let mut used = vec![false; materials.len()];
         mesh.material.iter().for_each(|&m| used[m as usize] = true);
         let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
         let mut effects = Effects::analyse(used_materials, &lights);
-        if light_tree.as_ref().is_some_and(|t| LightSampler::Auto.uses_tree(t.len())) {
+        if suits_tree {
             effects = effects | Effects::LIGHT_TREE;
         }
         Scene { mesh, materials, textures, cameras, lights, light_tree, tri_light, face_normals, accel, bounds_centre, bounds_radius, effects }
@@ -109,7 +112,7 @@ impl Scene {
 
     /// The tree a job's light samples choose through, if its `sampler` uses one here.
     pub fn light_tree_for(&self, sampler: LightSampler) -> Option<&LightTree> {
-        self.light_tree.as_ref().filter(|t| sampler.uses_tree(t.len()))
+        self.light_tree.as_ref().filter(|_| sampler.uses_tree(self.effects.contains(Effects::LIGHT_TREE)))
     }
 
     /// The effects of a render through `camera` with the job's `background`.
@@ -147,7 +150,7 @@ impl Scene {
 /// One light per emissive triangle of non-zero area, in triangle order, and each triangle's
 /// index among them (`NO_LIGHT` if none). The emissive triangles are found over the worker's
 /// threads: an animation's frame makes its lights anew from a million triangles, few of them lit.
-fn area_lights(mesh: &Mesh, materials: &[Material], textures: &[Texture]) -> (Vec<Light>, Vec<u32>) {
+pub(crate) fn area_lights(mesh: &Mesh, materials: &[Material], textures: &[Texture]) -> (Vec<Light>, Vec<u32>) {
     let emissive: Vec<bool> = materials.iter().map(Material::is_emissive).collect();
     let lit: Vec<u32> = match emissive.contains(&true) {
         true => (0..mesh.len() as u32).into_par_iter().with_min_len(PARALLEL_GRAIN).filter(|&i| emissive[mesh.material[i as usize] as usize]).collect(),
