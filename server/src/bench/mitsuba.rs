@@ -4,8 +4,9 @@
 //! an image against a shared reference times the time it took. Both renderers render the same
 //! triangles, normals, materials, lights and camera (`tests/reference/mitsuba_render.py` builds
 //! Mitsuba's scene from the bundled glTF with `gltf_scene.py`) with a box filter and unbounded
-//! depth, at the same spp, on the same cores, one after the other. `--scene` measures another
-//! bundled scene; where Mitsuba cannot render it as Tessera does, Tessera's side alone.
+//! depth, at the same spp, on the same cores, one after the other. `--scene` measures other
+//! bundled scenes, one or a list (then `mitsuba_suite.rs` sums them up); where Mitsuba cannot
+//! render one as Tessera does, Tessera's side alone.
 //!
 //! - Reference: Tessera `mis` + independent sampler at `--reference-spp` with a seed no measured
 //!   render uses, cached under `--cache`. Its per-pixel variance is known without bias, so its
@@ -62,17 +63,19 @@ pub struct MitsubaBench {
     /// (0: roulette off); several, comma-separated, are compared side by side.
     #[arg(long, value_delimiter = ',', default_values_t = [DEFAULT_ROULETTE_DEPTH])]
     pub roulette_depth: Vec<u32>,
-    /// Bundled scene to render. Mitsuba renders it from the same glTF
+    /// Bundled scenes to render, comma-separated (several: a table of each one's ratio and their
+    /// geometric mean follows). Mitsuba renders each from the same glTF
     /// (`tests/reference/gltf_scene.py`) where it can render it as Tessera does (matte surfaces,
     /// pure metals, Phong, area lights, smooth glass with or without absorption); for other scenes it says what it
     /// lacks and Tessera's side is measured alone.
-    #[arg(long, default_value = "cornell-box")]
-    pub scene: String,
+    #[arg(long, value_delimiter = ',', default_value = "cornell-box")]
+    pub scene: Vec<String>,
 }
 
 /// One configuration's figures.
 #[derive(Clone, Debug)]
 pub struct Row {
+    pub scene: String,
     pub renderer: &'static str,
     /// Rays per second (closest-hit and shadow), where the renderer counts them.
     pub rays_per_s: Option<f64>,
@@ -105,10 +108,22 @@ impl std::fmt::Display for Untranslatable {
 
 impl std::error::Error for Untranslatable {}
 
+/// Every scene's rows, Tessera's and (where it ran) Mitsuba's.
 pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
     anyhow::ensure!(b.size > 0 && b.repeats > 0 && b.reference_spp > 0 && !b.spp.contains(&0), "sizes, spp and repeats must be positive");
     anyhow::ensure!(!b.roulette_depth.is_empty(), "give at least one --roulette-depth");
-    let name = b.scene.as_str();
+    anyhow::ensure!(!b.scene.is_empty(), "give at least one --scene");
+    let mut rows = Vec::new();
+    for name in &b.scene {
+        rows.append(&mut run_scene(b, name)?);
+    }
+    if b.scene.len() > 1 {
+        super::mitsuba_suite::print_summary(&rows, &b.scene, &b.spp);
+    }
+    Ok(rows)
+}
+
+fn run_scene(b: &MitsubaBench, name: &str) -> anyhow::Result<Vec<Row>> {
     let bytes = crate::bundled::get(name).ok_or_else(|| anyhow::anyhow!("no bundled scene {name:?}; bundled: {}", crate::bundled::names().join(", ")))?;
     let scene = tessera_worker::scene::load_bytes(bytes, None)?;
     let reference = reference::rendered_with(&scene, bytes, name, b.size, b.reference_spp, SamplerKind::Independent, &b.cache)?;
@@ -125,14 +140,14 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
     for &spp in &b.spp {
         for &depth in &b.roulette_depth {
             for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
-                rows.push(tessera_row(&scene, &reference, b, spp, sampler, depth)?);
+                rows.push(tessera_row(&scene, name, &reference, b, spp, sampler, depth)?);
                 print_row(rows.last().expect("pushed"));
             }
         }
         if mitsuba_missing.is_some() || skip_mitsuba {
             continue;
         }
-        match mitsuba_rows(&reference, b, spp) {
+        match mitsuba_rows(name, &reference, b, spp) {
             Ok(mut found) => {
                 found.iter().for_each(print_row);
                 rows.append(&mut found);
@@ -170,11 +185,13 @@ fn print_row(r: &Row) {
     );
 }
 
+/// The lowest relMSE·s of `renderer` in `rows` at `spp`.
+pub(super) fn best<'r>(rows: &'r [Row], renderer: &str, spp: u32) -> Option<&'r Row> {
+    rows.iter().filter(|r| r.renderer == renderer && r.spp == spp).min_by(|a, b| a.product().total_cmp(&b.product()))
+}
+
 fn print_ratio(rows: &[Row], spp: u32) {
-    let best = |renderer: &str| {
-        rows.iter().filter(|r| r.renderer == renderer && r.spp == spp).min_by(|a, b| a.product().total_cmp(&b.product()))
-    };
-    if let (Some(t), Some(m)) = (best("tessera"), best("mitsuba")) {
+    if let (Some(t), Some(m)) = (best(rows, "tessera", spp), best(rows, "mitsuba", spp)) {
         crate::say!(
             "{spp} spp: tessera {} {:.3e} ÷ mitsuba {} {:.3e} = ratio {:.3} (target ≤ 0.33); time {:.2}×, relMSE {:.2}×",
             t.sampler,
@@ -188,7 +205,7 @@ fn print_ratio(rows: &[Row], spp: u32) {
     }
 }
 
-fn tessera_row(scene: &Scene, reference: &Reference, b: &MitsubaBench, spp: u32, sampler: SamplerKind, depth: u32) -> anyhow::Result<Row> {
+fn tessera_row(scene: &Scene, name: &str, reference: &Reference, b: &MitsubaBench, spp: u32, sampler: SamplerKind, depth: u32) -> anyhow::Result<Row> {
     let (mut seconds, mut error, mut rays) = (f64::INFINITY, 0.0, 0);
     for r in 0..b.repeats {
         let settings = RenderSettings {
@@ -209,7 +226,7 @@ fn tessera_row(scene: &Scene, reference: &Reference, b: &MitsubaBench, spp: u32,
     let rays_per_s = Some(rays as f64 / seconds);
     // With one roulette depth the label stays the sampler's name, as the ratio lines print it.
     let label = if b.roulette_depth.len() > 1 { format!("{} rr{depth}", sampler.name()) } else { sampler.name().into() };
-    Ok(Row { renderer: "tessera", rays_per_s, sampler: label, spp, seconds, rel_mse: error / b.repeats as f64 })
+    Ok(Row { scene: name.into(), renderer: "tessera", rays_per_s, sampler: label, spp, seconds, rel_mse: error / b.repeats as f64 })
 }
 
 /// relMSE with the reference's own expected share removed: E[(x − r)²] = E[(x − μ)²] + Var(r)
@@ -220,11 +237,11 @@ pub fn rel_mse_above_reference(means: impl Iterator<Item = [f64; 3]>, reference:
 }
 
 /// Runs the Mitsuba script at `spp` for every sampler and reads back its images.
-fn mitsuba_rows(reference: &Reference, b: &MitsubaBench, spp: u32) -> anyhow::Result<Vec<Row>> {
+fn mitsuba_rows(name: &str, reference: &Reference, b: &MitsubaBench, spp: u32) -> anyhow::Result<Vec<Row>> {
     let scratch = crate::scratch::ScratchDir::new("bench-mitsuba");
     let out_dir = scratch.path();
     let mut cmd = python_script(&b.python, "mitsuba_render.py")?;
-    cmd.args(["--scene", &b.scene])
+    cmd.args(["--scene", name])
         .args(["--variant", &b.variant, "--size", &b.size.to_string(), "--spp", &spp.to_string()])
         .args(["--samplers", &b.samplers.join(","), "--repeats", &b.repeats.to_string(), "--seed", "1"])
         .arg("--out-dir")
@@ -251,7 +268,7 @@ fn mitsuba_rows(reference: &Reference, b: &MitsubaBench, spp: u32) -> anyhow::Re
                 row.seconds = row.seconds.min(seconds);
                 row.rel_mse += error;
             }
-            None => rows.push(Row { renderer: "mitsuba", rays_per_s: None, sampler: sampler.into(), spp, seconds, rel_mse: error }),
+            None => rows.push(Row { scene: name.into(), renderer: "mitsuba", rays_per_s: None, sampler: sampler.into(), spp, seconds, rel_mse: error }),
         }
     }
     rows.iter_mut().for_each(|r| r.rel_mse /= b.repeats as f64);

@@ -13,7 +13,7 @@ fn bench(python: &str, cache: &Path) -> MitsubaBench {
         cache: cache.to_path_buf(),
         skip_mitsuba: false,
         roulette_depth: vec![3],
-        scene: "cornell-box".into(),
+        scene: vec!["cornell-box".into()],
     }
 }
 
@@ -51,7 +51,7 @@ fn a_scene_mitsuba_cannot_render_is_measured_on_tessera_alone() {
     let fake = dir.join("python3");
     std::fs::write(&fake, "#!/bin/sh\necho 'Mitsuba cannot render textured as Tessera does: textures' >&2\nexit 2\n").unwrap();
     std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
-    let err = mitsuba_rows(&Reference { means: vec![], variance: vec![], description: String::new() }, &bench(fake.to_str().unwrap(), &dir), 1)
+    let err = mitsuba_rows("cornell-box", &Reference { means: vec![], variance: vec![], description: String::new() }, &bench(fake.to_str().unwrap(), &dir), 1)
         .expect_err("the script refused");
     assert!(err.is::<Untranslatable>(), "{err:#}");
     assert_eq!(err.to_string(), "Mitsuba cannot render textured as Tessera does: textures");

@@ -9,6 +9,7 @@ pub mod frames;
 pub mod heap;
 pub mod host;
 pub mod mitsuba;
+pub mod mitsuba_suite;
 pub mod overhead;
 pub mod refit;
 pub mod same_rays;

@@ -45,6 +45,9 @@ pub struct Spread {
 }
 
 impl Spread {
+    /// Where no receiver is lit (or none scatters): no variance either way.
+    pub const NOTHING_LIT: Spread = Spread { by_power: 0.0, by_tree: 0.0 };
+
     /// Measures the choices among `lights[..tree.len()]` at receivers on the triangles
     /// `positions` for which `scatters(t)`.
     pub fn measure(tree: &LightTree, lights: &[Light], positions: &[[Vec3; 3]], scatters: impl Fn(usize) -> bool) -> Spread {
@@ -53,10 +56,12 @@ impl Spread {
         let total_power: f32 = powers.iter().sum();
         let by_power: Vec<f64> = powers.iter().map(|&p| (p / total_power) as f64).collect();
         let (cdf, area) = area_cdf(positions, scatters);
+        if !(area > 0.0) {
+            return Spread::NOTHING_LIT;
+        }
         let (mut var_power, mut var_tree, mut mean_sq) = (0.0f64, 0.0f64, 0.0f64);
         let mut f = vec![0.0f64; lights.len()];
-        for i in 0..if area > 0.0 { RECEIVERS } else { 0 } {
-            let Some((x, n)) = receiver(i, &cdf, area, positions) else { continue };
+        for (x, n) in (0..RECEIVERS).filter_map(|i| receiver(i, &cdf, area, positions)) {
             for (fk, l) in f.iter_mut().zip(lights) {
                 *fk = unoccluded(l, x, n) as f64;
             }
@@ -64,6 +69,7 @@ impl Spread {
             if !(sum > 0.0 && sum.is_finite()) {
                 continue;
             }
+            // Σ f²/p over the lights, for the choice that picks light k with probability p(k).
             let second_moment = |p: &dyn Fn(usize) -> f64| f.iter().enumerate().map(|(k, fk)| fk * fk / p(k).max(1e-30)).sum::<f64>();
             var_power += second_moment(&|k| by_power[k]) - sum * sum;
             var_tree += second_moment(&|k| tree.pmf(k, x, n) as f64) - sum * sum;
@@ -71,7 +77,7 @@ impl Spread {
         }
         match mean_sq > 0.0 {
             true => Spread { by_power: var_power / mean_sq, by_tree: var_tree / mean_sq },
-            false => Spread { by_power: 0.0, by_tree: 0.0 },
+            false => Spread::NOTHING_LIT,
         }
     }
 

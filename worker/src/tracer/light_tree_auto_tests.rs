@@ -69,7 +69,7 @@ fn lights_that_light_nothing_or_are_alone_choose_by_power_and_many_by_the_tree()
     let corners = [(-3.0, -3.0), (3.0, -3.0), (-3.0, 3.0), (3.0, 3.0)].map(|(x, z)| Vec3::new(x, 0.0, z));
     let (positions, lights) = room(10.0, &corners, 0.3, 2.5);
     let tree = LightTree::over(&lights).unwrap();
-    assert_eq!(Spread::measure(&tree, &lights, &positions, |_| false), Spread { by_power: 0.0, by_tree: 0.0 });
+    assert_eq!(Spread::measure(&tree, &lights, &positions, |_| false), Spread::NOTHING_LIT);
     assert!(!LightTree::suits(&lights, &positions, |_| false), "no surface to light");
     assert!(!LightTree::suits(&lights[..1], &positions, floor_only), "one light: nothing to choose");
     // From MIN_LIGHTS on the tree is used without measuring, even where nothing is lit.
