@@ -30,14 +30,26 @@ pub fn of(mesh: &Mesh, materials: &[Material], textures: &[Texture], cameras: &[
     mesh.material.iter().for_each(|&m| used[m as usize] = true);
     let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
     let mut e = Effects::analyse(used_materials, lights);
-    // The scene's area lights are made when it is built; make them as it will, to judge them.
-    let (area_lights, _) = area_lights(mesh, materials, textures);
-    let scatters = |t: usize| materials[mesh.material[t] as usize].scatters();
-    if LightTree::suits(&area_lights, &mesh.positions, scatters) {
+    if suits_light_tree(mesh, materials, textures) {
         e = e | Effects::LIGHT_TREE;
     }
     if cameras.iter().any(Camera::has_depth_of_field) {
         e = e | Effects::DEPTH_OF_FIELD;
     }
     e.names()
+}
+
+/// What [`LightTree::suits`] will say of the scene once it is built and its area lights made.
+/// Many emissive triangles suit the tree whatever they are, so they are only counted: making
+/// their lights (over 100 bytes each) would cost the coordinator memory on a large emissive mesh.
+fn suits_light_tree(mesh: &Mesh, materials: &[Material], textures: &[Texture]) -> bool {
+    let emits = |t: usize| {
+        let m = &materials[mesh.material[t] as usize];
+        m.is_emissive() && Light::triangle(t as u32, &mesh.positions[t], m.emission, m.double_sided).is_some()
+    };
+    if (0..mesh.len()).filter(|&t| emits(t)).take(LightTree::MIN_LIGHTS).count() == LightTree::MIN_LIGHTS {
+        return true;
+    }
+    let (area_lights, _) = area_lights(mesh, materials, textures);
+    LightTree::suits(&area_lights, &mesh.positions, |t| materials[mesh.material[t] as usize].scatters())
 }
