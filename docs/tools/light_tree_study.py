@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """Where the light tree starts to pay: two light choices on two families of scenes.
 
-`LightTree::MIN_LIGHTS` (worker/src/tracer/light_tree.rs) decides from how many emissive
-triangles a scene chooses a light sample's triangle through the tree instead of by power. This
-script measures both choices on scenes that differ in that count:
+Whether a scene chooses a light sample's triangle through the light tree instead of by power
+depends on its lights (`LightTree::MIN_LIGHTS` and `LightTree::suits`, worker/src/tracer/). This
+script measures both choices on scenes that differ in the count and the spread of their lights:
 
 - `lamps-N`: the bundled `many-lights` scene with a grid of G × G lamps instead of 16 × 16
   (N = 2G² triangles, the same 0.75 m pitch, room and occluders; even G only, so the occluders
