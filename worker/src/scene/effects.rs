@@ -51,5 +51,6 @@ fn suits_light_tree(mesh: &Mesh, materials: &[Material], textures: &[Texture]) -
         return true;
     }
     let (area_lights, _) = area_lights(mesh, materials, textures);
-    LightTree::suits(&area_lights, &mesh.positions, |t| materials[mesh.material[t] as usize].scatters())
+    let scatters = |t: usize| materials[mesh.material[t] as usize].scatters();
+    LightTree::over(&area_lights).is_some_and(|tree| tree.suits(&area_lights, &mesh.positions, scatters))
 }

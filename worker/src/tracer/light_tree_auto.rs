@@ -88,15 +88,14 @@ impl Spread {
 }
 
 impl LightTree {
-    /// Whether the `auto` light sampler chooses through a tree over the leading triangle lights
-    /// of `lights`, in a scene of triangles `positions` of which those with `scatters(t)`
-    /// reflect or transmit light (see the module).
-    pub fn suits(lights: &[Light], positions: &[[Vec3; 3]], scatters: impl Fn(usize) -> bool) -> bool {
-        let count = lights.iter().take_while(|l| matches!(l, Light::Triangle { .. })).count();
-        match count {
+    /// Whether the `auto` light sampler chooses through this tree over the leading triangle
+    /// lights of `lights`, in a scene of triangles `positions` of which those with
+    /// `scatters(t)` reflect or transmit light (see the module).
+    pub fn suits(&self, lights: &[Light], positions: &[[Vec3; 3]], scatters: impl Fn(usize) -> bool) -> bool {
+        match self.len() {
             0 | 1 => false,
             c if c >= LightTree::MIN_LIGHTS => true,
-            _ => LightTree::over(lights).is_some_and(|t| Spread::measure(&t, lights, positions, scatters).favours_tree()),
+            _ => Spread::measure(self, lights, positions, scatters).favours_tree(),
         }
     }
 }

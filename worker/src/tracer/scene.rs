@@ -97,7 +97,7 @@ impl Scene {
         let (mut lights, tri_light) = area_lights(&mesh, &materials, &textures);
         let light_tree = LightTree::over(&lights);
         let scatters = |t: usize| materials[mesh.material[t] as usize].scatters();
-        let suits_tree = LightTree::suits(&lights, &mesh.positions, scatters);
+        let suits_tree = light_tree.as_ref().is_some_and(|t| t.suits(&lights, &mesh.positions, scatters));
         lights.extend(punctual);
         let (bounds_centre, bounds_radius) = bounding_sphere(solid_box);
         let mut used = vec![false; materials.len()];
