@@ -17,7 +17,6 @@ use packet::{Packets, WatertightRay, for_packets, intersect_triangle};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::RayHit};
 use std::sync::Arc;
 use std::time::Duration;
-pub use bundle::BUNDLE;
 pub use faces::{Faces, triangle_normal};
 pub(crate) use faces::PARALLEL_GRAIN;
 use faces::Degenerate;
@@ -53,9 +52,6 @@ pub struct Accel {
     /// Whether queries run the walk compiled for AVX2 (`accel_avx2.rs`): the same hits.
     avx2: bool,
 }
-
-/// A triangle test's hit in tree space: (primitive slot, t, b1, b2).
-type Candidate = (usize, f32, f32, f32);
 
 /// Closest hit: ray parameter and barycentrics (b0 = 1 − b1 − b2) on triangle `prim`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -185,8 +181,14 @@ impl Accel {
         // tie (a ray through a shared edge) comes here too: it goes to the smaller triangle
         // index, making the hit independent of the order in which the tree is walked (a
         // rebuilt and a refitted tree give the same hit). Only t < tmax shortens the ray.
-        let mut best: Option<Candidate> = None;
-        let mut consider = |tmax: &mut f32, slot: usize, t: f32, b1: f32, b2: f32| self.consider(&mut best, &keep, tmax, (slot, t, b1, b2));
+        let mut best: Option<(usize, f32, f32, f32)> = None;
+        let mut consider = |tmax: &mut f32, slot: usize, t: f32, b1: f32, b2: f32| {
+            let closer = t < *tmax || (t == *tmax && best.is_some_and(|(s, ..)| self.prim_ids[slot] < self.prim_ids[s]));
+            if closer && keep(self.prim_ids[slot], b1, b2) {
+                best = Some((slot, t, b1, b2));
+                *tmax = tmax.min(t);
+            }
+        };
         match &self.tree {
             Tree::Wide(nodes) => wide::walk::<AVX, _>(nodes, obvhs_ray, tally, |r, base, bits, tally| {
                 for_packets(base, bits, |packet, lanes| {
@@ -210,26 +212,8 @@ impl Accel {
             }
             Tree::Empty => {}
         }
-        best.map(|c| self.hit(c))
-    }
-
-    /// Takes `candidate` as the closest hit so far if it is nearer than `tmax`, or as near and on
-    /// a triangle of smaller index (so a tie on a shared edge goes the same way whatever order
-    /// the tree is walked in), and `keep` accepts it; only a nearer one shortens the ray.
-    #[inline(always)]
-    fn consider(&self, best: &mut Option<Candidate>, keep: &impl Fn(u32, f32, f32) -> bool, tmax: &mut f32, candidate: Candidate) {
-        let (slot, t, b1, b2) = candidate;
-        let closer = t < *tmax || (t == *tmax && best.is_some_and(|(s, ..)| self.prim_ids[slot] < self.prim_ids[s]));
-        if closer && keep(self.prim_ids[slot], b1, b2) {
-            *best = Some(candidate);
-            *tmax = tmax.min(t);
-        }
-    }
-
-    /// The hit a closest candidate stands for, back in scene units.
-    #[inline(always)]
-    fn hit(&self, (slot, t, b1, b2): Candidate) -> Hit {
-        Hit { t: t / self.scale, prim: self.prim_ids[slot], b1, b2 }
+        let (slot, t, b1, b2) = best?;
+        Some(Hit { t: t / self.scale, prim: self.prim_ids[slot], b1, b2 })
     }
 
     /// Whether anything blocks the ray on 0 < t < t_max.
@@ -333,8 +317,6 @@ pub(crate) fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(f32, u32)> {
 
 #[path = "accel_avx2.rs"]
 mod avx2;
-#[path = "accel_bundle.rs"]
-mod bundle;
 #[path = "accel_build.rs"]
 mod build;
 #[path = "accel_faces.rs"]

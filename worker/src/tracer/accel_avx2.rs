@@ -48,13 +48,4 @@ impl Accel {
     pub(super) unsafe fn blocked_avx2(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool, tally: &mut impl Tally) -> bool {
         self.blocked::<true>(ray, t_max, keep, tally)
     }
-
-    /// `closest_bundle`, compiled for AVX2.
-    ///
-    /// # Safety
-    /// The CPU must have the enabled features ([`detected`]).
-    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    pub(super) unsafe fn closest_bundle_avx2(&self, rays: &[Ray], t_max: f32, keep: impl Fn(u32, f32, f32) -> bool, hits: &mut [Option<Hit>]) {
-        self.closest_bundle::<true>(rays, t_max, keep, hits)
-    }
 }

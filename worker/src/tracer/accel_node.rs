@@ -189,23 +189,16 @@ impl Slabs {
 /// for AVX2.
 #[inline(always)]
 pub(super) fn hits<const AVX: bool>(node: &Node, slabs: &Slabs, ray: &Ray, oct_inv4: u32) -> u32 {
-    let (children, leaves) = entered_children::<AVX>(node, slabs, ray.tmax);
-    hit_mask(node, children, leaves, oct_inv4)
-}
-
-/// (the children whose boxes the ray of `slabs` enters on [NEAREST, t_max], bit c for child c;
-/// the candidate-triangle bits of the entered leaf children, as [`Node::leaf_bits`] holds them).
-#[inline(always)]
-pub(super) fn entered_children<const AVX: bool>(node: &Node, slabs: &Slabs, t_max: f32) -> (u32, u32) {
     #[cfg(target_arch = "x86_64")]
     if AVX {
-        // SAFETY: AVX is true only in the copies of the walks compiled for AVX2 (`accel_avx2.rs`).
-        return unsafe { wide8::entered(node, slabs, t_max) };
+        // SAFETY: AVX is true only in the copy of the walk compiled for AVX2 (`accel_avx2.rs`).
+        let (children, leaves) = unsafe { wide8::entered(node, slabs, ray.tmax) };
+        return hit_mask(node, children, leaves, oct_inv4);
     }
-    let (lo, hi) = (entered(node, slabs, t_max, 0), entered(node, slabs, t_max, 1));
+    let (lo, hi) = (entered(node, slabs, ray.tmax, 0), entered(node, slabs, ray.tmax, 1));
     let children = lo.bitmask() | hi.bitmask() << 4;
     let leaves = (Vec4::select(lo, node.leaf_bits[0], Vec4::ZERO) + Vec4::select(hi, node.leaf_bits[1], Vec4::ZERO)).element_sum() as u32;
-    (children, leaves)
+    hit_mask(node, children, leaves, oct_inv4)
 }
 
 /// The hit mask from the entered children (bit c: child c) and the leaf bits they contribute.

@@ -19,7 +19,6 @@ use rayon::prelude::*;
 
 /// Per-ray constants: the axis permutation and shear that map the ray to +z through the
 /// origin, each in every lane. Kept small (and built inline), as it is made for every ray.
-#[derive(Clone, Copy)]
 pub(super) struct WatertightRay {
     perm: [usize; 3],
     /// origin[kx], origin[ky], origin[kz].

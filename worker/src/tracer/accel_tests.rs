@@ -1,22 +1,22 @@
 use super::*;
 
 /// A deterministic stream for tests (SplitMix64).
-pub(super) struct Rng(pub(super) u64);
+struct Rng(u64);
 impl Rng {
-    pub(super) fn next(&mut self) -> f32 {
+    fn next(&mut self) -> f32 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
         z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
         ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
     }
-    pub(super) fn vec(&mut self) -> Vec3 {
+    fn vec(&mut self) -> Vec3 {
         Vec3::new(self.next(), self.next(), self.next())
     }
 }
 
 /// `n` random triangles of size ≈ 1 in a 10-unit cube.
-pub(super) fn triangle_soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
+fn triangle_soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
     (0..n)
         .map(|_| {
             let c = rng.vec() * 10.0;
@@ -26,7 +26,7 @@ pub(super) fn triangle_soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
 }
 
 /// A unit square in z = 0 split into an n×n grid of quads, two triangles each.
-pub(super) fn grid(n: usize) -> Vec<[Vec3; 3]> {
+fn grid(n: usize) -> Vec<[Vec3; 3]> {
     let mut tris = Vec::new();
     let s = 1.0 / n as f32;
     for i in 0..n {

@@ -20,7 +20,6 @@
 //! masks and textured/non-Lambert surfaces is inside `if E::… {}` blocks that vanish from
 //! kernels without them. A smooth glass bounce is a delta: no light sample is taken there, and
 //! emission found after it counts in full for every estimator.
-use crate::tracer::accel::Hit;
 use crate::tracer::bsdf::{Bsdf, BsdfSample};
 use crate::tracer::effects::{AllEffects, EffectSet};
 use crate::tracer::light::{LightSampler, LightSet, Target};
@@ -130,13 +129,7 @@ impl<'a> Integrator<'a> {
     }
 
     /// Radiance along `ray` by kernel `E` (see [`crate::tracer::effects`]).
-    pub fn li_for<E: EffectSet>(&self, ray: Ray, sampler: &mut Sampler) -> PathSample {
-        self.li_traced::<E>(ray, None, sampler)
-    }
-
-    /// [`Integrator::li_for`], given what `ray` hits first when the caller has traced it
-    /// (`Some`; the camera rays of a pixel are traced together, `Integrator::first_hits`).
-    pub(crate) fn li_traced<E: EffectSet>(&self, mut ray: Ray, mut first: Option<Option<Hit>>, sampler: &mut Sampler) -> PathSample {
+    pub fn li_for<E: EffectSet>(&self, mut ray: Ray, sampler: &mut Sampler) -> PathSample {
         let est = self.settings.estimator;
         let (mut l, mut beta, mut max_weight) = (Vec3::ZERO, Vec3::ONE, 1.0f32);
         let mut prev: Option<Bounce> = None;
@@ -151,7 +144,7 @@ impl<'a> Integrator<'a> {
         for depth in 0.. {
             let u_glass = if E::GLASS { sampler.get_1d() } else { 0.0 };
             rays += 1;
-            let hit = first.take().unwrap_or_else(|| self.first_hit::<E>(&ray)).and_then(|h| self.surface::<E>(&ray, h, u_glass));
+            let hit = self.surface::<E>(&ray, u_glass);
             if E::GLASS && medium != Vec3::ZERO {
                 beta *= transmittance(medium, hit.as_ref().map_or(f32::INFINITY, |s| s.dist));
             }

@@ -7,12 +7,10 @@
 //! The scene chooses the kernel (its effects) and caps the path depth (its needed depth: 0 when
 //! nothing can scatter or nothing emits) unless the caller forces a kernel.
 use crate::dispatch_kernel;
-use crate::tracer::accel::BUNDLE;
 use crate::tracer::camera::RasterCamera;
 use crate::tracer::effects::{EffectSet, KernelBits};
 use crate::tracer::film::{PixelSums, Tile, TileSums};
 use crate::tracer::integrator::{Integrator, PathSettings};
-use crate::tracer::ray::Ray;
 use crate::tracer::ray_log::RayLog;
 use crate::tracer::sampler::{PixelSeeds, Sampler, SamplerKind};
 use crate::tracer::scene::Scene;
@@ -172,36 +170,21 @@ pub(crate) fn render_row<E: EffectSet>(
     for (col, sums) in pixels.iter_mut().enumerate() {
         let px = x0 + col as u32;
         let seeds = PixelSeeds::new(settings.sampler, settings.seed, px, py);
-        // The pixel's camera rays, a bundle at a time, walk the tree together (`accel_bundle.rs`).
-        for first in samples.clone().step_by(BUNDLE) {
-            let n = (samples.end - first).min(BUNDLE as u32) as usize;
-            let mut samplers: [Sampler; BUNDLE] = std::array::from_fn(|k| Sampler::for_pixel(&seeds, first + k as u32));
-            let rays: [Ray; BUNDLE] = std::array::from_fn(|k| match k < n {
-                true => camera_ray::<E>(camera, px, py, &mut samplers[k]),
-                false => Ray::new(Vec3::ZERO, Vec3::ZERO),
-            });
-            let mut hits = [None; BUNDLE];
-            integrator.first_hits::<E>(&rays[..n], &mut hits[..n]);
-            for k in 0..n {
-                let s = integrator.li_traced::<E>(rays[k], Some(hits[k]), &mut samplers[k]);
-                stats.rays += u64::from(s.rays);
-                if s.radiance.is_finite() {
-                    sums.add_sample(s.radiance);
-                    stats.max_weight = stats.max_weight.max(s.max_weight);
-                } else {
-                    stats.dropped += 1;
-                }
+        for index in samples.clone() {
+            let mut sampler = Sampler::for_pixel(&seeds, index);
+            let jitter = sampler.get_2d();
+            let ray = if E::DOF { camera.ray_lens(px, py, jitter, sampler.get_2d()) } else { camera.ray(px, py, jitter) };
+            let s = integrator.li_for::<E>(ray, &mut sampler);
+            stats.rays += u64::from(s.rays);
+            if s.radiance.is_finite() {
+                sums.add_sample(s.radiance);
+                stats.max_weight = stats.max_weight.max(s.max_weight);
+            } else {
+                stats.dropped += 1;
             }
         }
     }
     stats
-}
-
-/// The camera ray of the sample `sampler` draws for, through pixel (px, py).
-#[inline(always)]
-fn camera_ray<E: EffectSet>(camera: &RasterCamera, px: u32, py: u32, sampler: &mut Sampler) -> Ray {
-    let jitter = sampler.get_2d();
-    if E::DOF { camera.ray_lens(px, py, jitter, sampler.get_2d()) } else { camera.ray(px, py, jitter) }
 }
 
 /// Mean radiance over a whole frame of sums (for tests and quick checks).

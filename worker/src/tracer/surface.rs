@@ -6,7 +6,6 @@
 //! the matte kernel reads none of them. Normal maps perturb the shading normal after it is
 //! turned to the geometric normal's side and before two-sided flipping, and are then kept
 //! consistent with the geometric normal and the viewer ([`normal_map::keep_consistent`]).
-use crate::tracer::accel::Hit;
 use crate::tracer::bsdf::Bsdf;
 use crate::tracer::effects::EffectSet;
 use crate::tracer::integrator::Integrator;
@@ -47,38 +46,20 @@ impl Surface {
 }
 
 impl Integrator<'_> {
-    /// The first hit along `ray` that kernel `E` sees (alpha-cut hits skipped).
-    #[inline(always)]
-    pub(crate) fn first_hit<E: EffectSet>(&self, ray: &Ray) -> Option<Hit> {
-        if let Some(log) = self.ray_log {
-            log.push(ray, f32::INFINITY, RayQuery::Closest);
-        }
-        if E::ALPHA {
-            self.scene.accel.intersect_where(ray, f32::INFINITY, |prim, b1, b2| self.opaque(prim, b1, b2))
-        } else {
-            self.scene.accel.intersect(ray, f32::INFINITY)
-        }
-    }
-
-    /// [`Integrator::first_hit`] of each of `rays` (at most [`BUNDLE`](crate::tracer::accel::BUNDLE)),
-    /// found by one walk of the tree (`accel_bundle.rs`): the same hits.
-    pub(crate) fn first_hits<E: EffectSet>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
-        if let Some(log) = self.ray_log {
-            rays.iter().for_each(|ray| log.push(ray, f32::INFINITY, RayQuery::Closest));
-        }
-        if E::ALPHA {
-            self.scene.accel.intersect_bundle_where(rays, f32::INFINITY, |prim, b1, b2| self.opaque(prim, b1, b2), hits)
-        } else {
-            self.scene.accel.intersect_bundle_where(rays, f32::INFINITY, |_, _, _| true, hits)
-        }
-    }
-
-    /// What kernel `E` sees at `hit`, the first surface along `ray`.
+    /// The first surface along `ray` that kernel `E` sees (alpha-cut hits skipped).
     // Always, with `Integrator::emitted`, rather than left to the inliner: after changes elsewhere
     // the plain build made `emitted` a call, so every hit's `Surface` was stored and copied to be
     // lent to it (+2.5 % instructions, +4 % time on the Cornell box; docs/performance.md, session 32).
     #[inline(always)]
-    pub(crate) fn surface<E: EffectSet>(&self, ray: &Ray, hit: Hit, u_glass: f32) -> Option<Surface> {
+    pub(crate) fn surface<E: EffectSet>(&self, ray: &Ray, u_glass: f32) -> Option<Surface> {
+        if let Some(log) = self.ray_log {
+            log.push(ray, f32::INFINITY, RayQuery::Closest);
+        }
+        let hit = if E::ALPHA {
+            self.scene.accel.intersect_where(ray, f32::INFINITY, |prim, b1, b2| self.opaque(prim, b1, b2))
+        } else {
+            self.scene.accel.intersect(ray, f32::INFINITY)
+        }?;
         let mesh = &self.scene.mesh;
         let i = hit.prim as usize;
         let b = [1.0 - hit.b1 - hit.b2, hit.b1, hit.b2];
