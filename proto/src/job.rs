@@ -38,7 +38,9 @@ pub struct JobRequest {
     /// How a light sample chooses among the scene's emissive triangles: `auto` (default: through
     /// a light tree from 32 of them on, or fewer that differ in what they give the scene's
     /// surfaces, such as lamps apart; else in proportion to power), `power`, or `tree` (through
-    /// the tree whatever their number). Any choice gives the same expected image.
+    /// the tree whatever their number). Any choice gives the same expected image. `auto` is
+    /// settled when the job is accepted (the effects list `light_tree` where it means the tree),
+    /// so every unit and every frame of an animation choose alike.
     pub light_sampler: Option<String>,
     /// Constant background radiance, linear RGB (default black).
     pub background: Option<[f32; 3]>,
@@ -84,7 +86,10 @@ pub struct RenderParams {
     /// setting, leaves the worker's default.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub roulette_depth: Option<u32>,
-    /// `auto`, `power` or `tree`. None, from a coordinator that predates the setting, is `auto`.
+    /// `power` or `tree`: the coordinator settles a job's `auto` when it accepts the job, as its
+    /// effects list says (`light_tree`), so every unit and frame choose lights alike. `auto`,
+    /// or None from a coordinator that predates the setting, leaves the choice to each worker's
+    /// scene.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub light_sampler: Option<String>,
     pub background: [f32; 3],

@@ -42,8 +42,9 @@ pub struct JobArgs {
     pub roulette_depth: u32,
     /// How a light sample chooses among the emissive triangles: auto (through a light tree from
     /// 32 of them on, or fewer that differ in what they give the scene's surfaces, such as lamps
-    /// apart; else by power), power, or tree (always through the tree). The expected image is
-    /// the same.
+    /// apart; else by power), power, or tree (always through the tree). `auto` is settled once
+    /// per job, so every frame of an animation chooses alike; the image's metadata
+    /// (`tessera.light_sampler`) names the choice. The expected image is the same.
     #[arg(long, default_value = "auto")]
     pub light_sampler: String,
     /// Tile edge in pixels: one unit of work is a tile over a batch of samples.

@@ -55,22 +55,31 @@ async fn a_bright_background_is_listed_among_the_effects() {
 }
 
 /// `light_tree` is listed where the job's light samples go through a tree: by default where it
-/// suits the scene (`many-lights`, not the Cornell box's quad), or as the job says.
+/// suits the scene (`many-lights`, not the Cornell box's quad), or as the job says. `auto` is
+/// settled when the job is accepted, so the units (every frame of an animation alike) carry the
+/// sampler the list describes.
 #[tokio::test]
 async fn the_light_sampler_decides_whether_the_light_tree_is_listed() {
-    let api = Api::new("job-light-sampler");
-    for (scene, sampler, listed) in [
-        ("cornell-box", None, false),
-        ("cornell-box", Some("tree"), true),
-        ("cornell-box", Some("power"), false),
-        ("many-lights", None, true),
-        ("many-lights", Some("auto"), true),
-        ("many-lights", Some("power"), false),
-    ] {
+    for (case, (scene, sampler, listed, settled)) in [
+        ("cornell-box", None, false, "power"),
+        ("cornell-box", Some("tree"), true, "tree"),
+        ("cornell-box", Some("power"), false, "power"),
+        ("many-lights", None, true, "tree"),
+        ("many-lights", Some("auto"), true, "tree"),
+        ("many-lights", Some("power"), false, "power"),
+        ("cornell-animated", Some("auto"), false, "power"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let api = Api::new(&format!("job-light-sampler-{case}"));
         let job = api.submit(&job_body(json!({"scene": scene, "light_sampler": sampler}))).await;
         let effects = job["effects"].as_array().unwrap();
         assert_eq!(effects.contains(&json!("light_tree")), listed, "{scene} {sampler:?}: {effects:?}");
         assert!(effects.contains(&json!("area_lights")), "{scene}: {effects:?}");
+        let worker = register(&api).await;
+        let unit = lease(&api, &worker).await;
+        assert_eq!(unit.params.light_sampler.as_deref(), Some(settled), "{scene} {sampler:?}");
     }
 }
 

@@ -79,9 +79,19 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
         effects.push("background".into());
     }
     effects.retain(|e| e != "light_tree");
-    if uses_light_tree(light_sampler, &scene.effects) {
+    let light_tree = uses_light_tree(light_sampler, &scene.effects);
+    if light_tree {
         effects.push("light_tree".into());
     }
+    // `auto` is settled here, once per job, as the effects list says: the frames of an
+    // animation then all choose their lights the same way (a worker judging each frame could
+    // switch between two noise characters from one frame to the next), and the job's record,
+    // its status and its images' metadata name the sampler that was used.
+    let light_sampler = match light_sampler {
+        LightSampler::Auto if light_tree => LightSampler::Tree,
+        LightSampler::Auto => LightSampler::Power,
+        chosen => chosen,
+    };
     effects.sort();
     let params = RenderParams {
         width,
