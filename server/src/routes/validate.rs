@@ -85,8 +85,8 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
     }
     // `auto` is settled here, once per job, as the effects list says: the frames of an
     // animation then all choose their lights the same way (a worker judging each frame could
-    // switch between two noise characters from one frame to the next), and the job's record,
-    // its status and its images' metadata name the sampler that was used.
+    // switch between two noise characters from one frame to the next), and the units it
+    // leases and its images' metadata name the sampler that was used.
     let light_sampler = match light_sampler {
         LightSampler::Auto if light_tree => LightSampler::Tree,
         LightSampler::Auto => LightSampler::Power,
