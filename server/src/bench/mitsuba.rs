@@ -185,9 +185,9 @@ fn print_row(r: &Row) {
     );
 }
 
-/// The lowest relMSE·s of `renderer` in `rows` at `spp`.
-pub(super) fn best<'r>(rows: &'r [Row], renderer: &str, spp: u32) -> Option<&'r Row> {
-    rows.iter().filter(|r| r.renderer == renderer && r.spp == spp).min_by(|a, b| a.product().total_cmp(&b.product()))
+/// The lowest relMSE·s of `renderer` among `rows` at `spp`.
+pub(super) fn best<'r>(rows: impl IntoIterator<Item = &'r Row>, renderer: &str, spp: u32) -> Option<&'r Row> {
+    rows.into_iter().filter(|r| r.renderer == renderer && r.spp == spp).min_by(|a, b| a.product().total_cmp(&b.product()))
 }
 
 fn print_ratio(rows: &[Row], spp: u32) {

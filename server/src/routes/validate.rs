@@ -78,20 +78,12 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
     if background.iter().any(|c| *c > 0.0) {
         effects.push("background".into());
     }
+    let light_sampler = settled(light_sampler, &scene.effects);
     effects.retain(|e| e != "light_tree");
-    let light_tree = uses_light_tree(light_sampler, &scene.effects);
-    if light_tree {
+    // A tree is walked only where there are area lights to choose among.
+    if light_sampler == LightSampler::Tree && scene.effects.iter().any(|e| e == "area_lights") {
         effects.push("light_tree".into());
     }
-    // `auto` is settled here, once per job, as the effects list says: the frames of an
-    // animation then all choose their lights the same way (a worker judging each frame could
-    // switch between two noise characters from one frame to the next), and the units it
-    // leases and its images' metadata name the sampler that was used.
-    let light_sampler = match light_sampler {
-        LightSampler::Auto if light_tree => LightSampler::Tree,
-        LightSampler::Auto => LightSampler::Power,
-        chosen => chosen,
-    };
     effects.sort();
     let params = RenderParams {
         width,
@@ -125,18 +117,19 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
     })
 }
 
-/// The frame numbers of a `frames` range, and its fps. `pixels` and `tiles` are per frame.
-/// Whether a job's light samples go through a light tree: the scene's effects say what `auto`
-/// does (`light_tree`: `LightTree::suits` the scene), and whether there is any area light to choose.
-fn uses_light_tree(sampler: LightSampler, scene_effects: &[String]) -> bool {
-    let has = |name: &str| scene_effects.iter().any(|e| e == name);
+/// The sampler a job's units carry: `auto` settled, once per job, as the scene's effects say
+/// (`light_tree`: `LightTree::suits` the scene), so that every frame of an animation chooses its
+/// lights alike (a worker judging each frame could switch between two noise characters from one
+/// frame to the next) and the units and the images' metadata name the sampler used.
+fn settled(sampler: LightSampler, scene_effects: &[String]) -> LightSampler {
     match sampler {
-        LightSampler::Auto => has("light_tree"),
-        LightSampler::Power => false,
-        LightSampler::Tree => has("area_lights"),
+        LightSampler::Auto if scene_effects.iter().any(|e| e == "light_tree") => LightSampler::Tree,
+        LightSampler::Auto => LightSampler::Power,
+        chosen => chosen,
     }
 }
 
+/// The frame numbers of a `frames` range, and its fps. `pixels` and `tiles` are per frame.
 fn frames(range: Option<&FrameRange>, pixels: u64, tiles: u64, time_limited: bool) -> Result<(Vec<u32>, f64), AppError> {
     let Some(r) = range else { return Ok((vec![0], DEFAULT_FPS)) };
     let step = r.step.unwrap_or(1);
