@@ -19,6 +19,8 @@
 //!   Mitsuba: one `mi.render` call after a warm-up render has compiled its kernels.
 //! - Each configuration renders `--repeats` times with different seeds; the relMSE is the mean
 //!   over them and the time the fastest (this machine's run-to-run noise is one-sided).
+//! - After a scene's ratios: the floor speed alone sets under them (`speed_floor.rs`), the
+//!   ratio were Tessera's time only its rays, traced at Embree's rate.
 //!
 //! Without Mitsuba the command renders Tessera's side and says how to install it.
 use super::accuracy::measure::rel_mse;
@@ -169,6 +171,8 @@ fn run_scene(b: &MitsubaBench, name: &str) -> anyhow::Result<Vec<Row>> {
     for &spp in &b.spp {
         print_ratio(&rows, spp);
     }
+    let ratios: Vec<(u32, f64)> = b.spp.iter().filter_map(|&spp| Some((spp, super::mitsuba_suite::ratio(&rows, name, spp)?))).collect();
+    super::speed_floor::say(&b.python, name, &scene, &ratios);
     Ok(rows)
 }
 

@@ -13,6 +13,7 @@ pub mod mitsuba_suite;
 pub mod overhead;
 pub mod refit;
 pub mod same_rays;
+pub mod speed_floor;
 pub mod stock;
 
 /// `println!` for a benchmark's figures. A reader that has gone (`tessera-bench … | head -3`)

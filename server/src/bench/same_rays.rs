@@ -127,7 +127,7 @@ fn spread(rounds: &[Round], figure: impl Fn(&Round) -> f64) -> String {
 }
 
 /// Every ray of the render [`render_one_core`] times, in the order it traced them.
-fn log_rays(scene: &Scene, size: u32, spp: u32) -> anyhow::Result<Vec<LoggedRay>> {
+pub(crate) fn log_rays(scene: &Scene, size: u32, spp: u32) -> anyhow::Result<Vec<LoggedRay>> {
     let settings = settings(size)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let log = RayLog::new();

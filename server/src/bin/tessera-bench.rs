@@ -25,7 +25,9 @@
 //! `tessera-bench frames`     — an animation job on local workers with frame affinity on and off:
 //!                              time per frame and the scene builds/refits workers reported.
 //! `tessera-bench mitsuba`    — time to quality (relMSE × seconds) on the Cornell box against
-//!                              Mitsuba 3 in the same run (tessera_server::bench::mitsuba).
+//!                              Mitsuba 3 in the same run, and the floor under that ratio
+//!                              were every ray traced at Embree's rate and nothing else timed
+//!                              (tessera_server::bench::mitsuba, speed_floor).
 use clap::{Parser, Subcommand};
 use std::time::{Duration, Instant};
 use tessera_proto::{JobRequest, PartialSums, TileRect, WirePixel};
@@ -85,7 +87,8 @@ enum Cmd {
     },
     /// An animation job (frames 0..N−1) on local workers with frame affinity on and off.
     Frames(tessera_server::bench::frames::FramesBench),
-    /// Time to quality (relMSE × seconds) on the Cornell box, Tessera vs Mitsuba 3 in one run.
+    /// Time to quality (relMSE × seconds) on the Cornell box, Tessera vs Mitsuba 3 in one run;
+    /// each scene ends with the floor speed alone sets (every ray at Embree's rate, nothing else timed).
     Mitsuba(tessera_server::bench::mitsuba::MitsubaBench),
     /// Unit round trips per second through a one-core coordinator, fed by fake workers whose
     /// results ask for the next lease as real workers' do.

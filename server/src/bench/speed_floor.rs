@@ -1,0 +1,72 @@
+//! How far speed alone could take the time-to-quality ratio: the last line of each scene's
+//! `tessera-bench mitsuba` comparison, when Mitsuba ran.
+//!
+//! The ratio is Tessera's relMSE·s over Mitsuba's. However fast its shading and sampling became,
+//! Tessera's time per sample would still include tracing its rays. Suppose it traced them as
+//! fast as Embree does (Mitsuba's traversal, the fastest CPU traversal that runs here) and spent
+//! nothing at all on anything else. Its time would then shrink by the render's rays/s over
+//! Embree's on the same rays, and so would the ratio at the same error. The product is a floor,
+//! not a target: a ratio below it needs less error at equal spp (a better estimator), since no
+//! amount of speed gets there.
+//!
+//! Both rates are one core's, measured on one render ([`SIZE`]², [`SPP`] spp, `mis` + Sobol,
+//! the setting of `tessera-bench bvh`): the render timed alone (the faster of two runs), and its
+//! logged rays through Embree ([`crate::bench::embree`]). Rays per sample do not depend on the
+//! image's size or the thread count, so one core's rates stand for the compared render's.
+use crate::bench::bvh::render_one_core;
+use crate::bench::embree::{self, EmbreeRate};
+use crate::bench::same_rays::log_rays;
+use tessera_worker::tracer::Scene;
+
+/// The measured render's width and height.
+pub const SIZE: u32 = 128;
+/// The measured render's samples per pixel.
+pub const SPP: u32 = 16;
+
+/// Prints the floor under each (spp, ratio) of bundled scene `name`, or why it was not measured.
+pub fn say(python: &str, name: &str, scene: &Scene, ratios: &[(u32, f64)]) {
+    if ratios.is_empty() {
+        return;
+    }
+    match rates(python, name, scene) {
+        Ok((render, embree)) => {
+            let share = render / embree.rays_per_s;
+            let floors: Vec<String> = ratios.iter().map(|&(spp, ratio)| format!("{:.3} at {spp} spp", ratio * share)).collect();
+            crate::say!(
+                "speed alone: on one core the render traces {:.2} M rays/s and Embree {:.2} M rays/s of the same {} rays; with every ray traced at Embree's rate and nothing else costing any time, the ratio would be {:.0} % of the above: {} (target ≤ 0.33; lower needs less error at equal spp)",
+                render / 1e6,
+                embree.rays_per_s / 1e6,
+                embree.rays,
+                100.0 * share,
+                floors.join(", ")
+            );
+        }
+        Err(e) => crate::say!("speed alone: not measured ({e:#})"),
+    }
+}
+
+/// (the render's rays per second, Embree's rate on the same rays), one core each.
+fn rates(python: &str, name: &str, scene: &Scene) -> anyhow::Result<(f64, EmbreeRate)> {
+    let rays = log_rays(scene, SIZE, SPP)?;
+    let mut fastest = f64::INFINITY;
+    for _ in 0..2 {
+        let (traced, secs) = render_one_core(scene, SIZE, SPP)?;
+        anyhow::ensure!(traced == rays.len() as u64, "the render traced {traced} rays, its log holds {}", rays.len());
+        fastest = fastest.min(secs);
+    }
+    let embree = embree::trace(python, name, &rays)?;
+    Ok((rays.len() as f64 / fastest, embree))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn without_mitsuba_it_says_why_instead_of_failing() {
+        let scene = tessera_worker::scene::load_bytes(crate::bundled::get("cornell-box").expect("bundled"), None).expect("loads");
+        let err = rates("/nonexistent/python3", "cornell-box", &scene).expect_err("no interpreter");
+        assert!(format!("{err:#}").contains("/nonexistent/python3"), "{err:#}");
+        say("/nonexistent/python3", "cornell-box", &scene, &[(64, 1.7)]);
+    }
+}
