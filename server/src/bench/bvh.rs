@@ -24,6 +24,11 @@ use tessera_worker::tracer::{Scene, render_tile};
 use crate::bench::{refit, same_rays};
 use crate::bench::stock::StockBvh;
 
+/// The path-traced render's default width and height, and samples per pixel: a few hundred
+/// thousand rays, enough for stable rates in a second or two (also `speed_floor.rs`'s render).
+pub const RENDER_SIZE: u32 = 128;
+pub const RENDER_SPP: u32 = 16;
+
 #[derive(Clone, Debug, clap::Args)]
 pub struct BvhBench {
     /// Triangles to generate (rounded to whole spheres).
@@ -36,10 +41,10 @@ pub struct BvhBench {
     #[arg(long)]
     pub scene: Option<String>,
     /// The render's width and height in pixels (`mis` + Sobol, one thread).
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = RENDER_SIZE)]
     pub size: u32,
     /// The render's samples per pixel.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = RENDER_SPP)]
     pub spp: u32,
     /// Rounds of (render, its rays through our BVH, through obvhs's), timed back to back so
     /// that the machine's drift touches all three alike; the median round is reported.

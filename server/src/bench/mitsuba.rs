@@ -168,10 +168,12 @@ fn run_scene(b: &MitsubaBench, name: &str) -> anyhow::Result<Vec<Row>> {
         crate::say!("Mitsuba 3 was not run ({e:#}).\nTo compare, install it: {INSTALL}");
         return Ok(rows);
     }
+    let mut ratios = Vec::new();
     for &spp in &b.spp {
-        print_ratio(&rows, spp);
+        if let Some(ratio) = print_ratio(&rows, spp) {
+            ratios.push((spp, ratio));
+        }
     }
-    let ratios: Vec<(u32, f64)> = b.spp.iter().filter_map(|&spp| Some((spp, super::mitsuba_suite::ratio(&rows, name, spp)?))).collect();
     super::speed_floor::say(&b.python, name, &scene, &ratios);
     Ok(rows)
 }
@@ -194,19 +196,21 @@ pub(super) fn best<'r>(rows: impl IntoIterator<Item = &'r Row>, renderer: &str, 
     rows.into_iter().filter(|r| r.renderer == renderer && r.spp == spp).min_by(|a, b| a.product().total_cmp(&b.product()))
 }
 
-fn print_ratio(rows: &[Row], spp: u32) {
-    if let (Some(t), Some(m)) = (best(rows, "tessera", spp), best(rows, "mitsuba", spp)) {
-        crate::say!(
-            "{spp} spp: tessera {} {:.3e} ÷ mitsuba {} {:.3e} = ratio {:.3} (target ≤ 0.33); time {:.2}×, relMSE {:.2}×",
-            t.sampler,
-            t.product(),
-            m.sampler,
-            m.product(),
-            t.product() / m.product(),
-            t.seconds / m.seconds,
-            t.rel_mse / m.rel_mse
-        );
-    }
+/// Prints Tessera's best relMSE·s over Mitsuba's at `spp` and returns it, if both rendered.
+fn print_ratio(rows: &[Row], spp: u32) -> Option<f64> {
+    let (t, m) = (best(rows, "tessera", spp)?, best(rows, "mitsuba", spp)?);
+    let ratio = t.product() / m.product();
+    crate::say!(
+        "{spp} spp: tessera {} {:.3e} ÷ mitsuba {} {:.3e} = ratio {:.3} (target ≤ 0.33); time {:.2}×, relMSE {:.2}×",
+        t.sampler,
+        t.product(),
+        m.sampler,
+        m.product(),
+        ratio,
+        t.seconds / m.seconds,
+        t.rel_mse / m.rel_mse
+    );
+    Some(ratio)
 }
 
 fn tessera_row(scene: &Scene, name: &str, reference: &Reference, b: &MitsubaBench, spp: u32, sampler: SamplerKind, depth: u32) -> anyhow::Result<Row> {

@@ -15,7 +15,7 @@
 use super::mitsuba::{Row, best};
 
 /// Tessera's best relMSE·s over Mitsuba's on `scene` at `spp`, if both rendered it.
-pub(super) fn ratio(rows: &[Row], scene: &str, spp: u32) -> Option<f64> {
+fn ratio(rows: &[Row], scene: &str, spp: u32) -> Option<f64> {
     let of_scene = || rows.iter().filter(|r| r.scene == scene);
     let (t, m) = (best(of_scene(), "tessera", spp)?, best(of_scene(), "mitsuba", spp)?);
     Some(t.product() / m.product())

@@ -38,8 +38,7 @@ pub fn run(scene: &Scene, stock: &StockBvh, b: &BvhBench) -> anyhow::Result<()> 
     let mut hits = (0, 0);
     let mut all = Vec::with_capacity(rounds);
     for _ in 0..rounds.max(1) {
-        let (traced, secs) = render_one_core(scene, size, spp)?;
-        anyhow::ensure!(traced == logged.len() as u64, "the render traced {traced} rays, its log holds {}", logged.len());
+        let secs = render_timed(scene, size, spp, &logged)?;
         let (ours_hits, ours_s) = ours_logged(&scene.accel, &logged);
         let (stock_hits, stock_s) = stock.trace_logged(&logged);
         hits = (ours_hits, stock_hits);
@@ -124,6 +123,14 @@ fn spread(rounds: &[Round], figure: impl Fn(&Round) -> f64) -> String {
     let v = sorted(rounds, figure);
     let precision = if v[v.len() / 2] >= 20.0 { 0 } else { 2 };
     format!("{:.p$} ({:.p$}–{:.p$})", v[v.len() / 2], v[0], v[v.len() - 1], p = precision)
+}
+
+/// The seconds [`render_one_core`] takes, checking that it traced the rays [`log_rays`] logged
+/// (the same render, so its rate is the rate of those rays).
+pub(crate) fn render_timed(scene: &Scene, size: u32, spp: u32, logged: &[LoggedRay]) -> anyhow::Result<f64> {
+    let (traced, secs) = render_one_core(scene, size, spp)?;
+    anyhow::ensure!(traced == logged.len() as u64, "the render traced {traced} rays, its log holds {}", logged.len());
+    Ok(secs)
 }
 
 /// Every ray of the render [`render_one_core`] times, in the order it traced them.

@@ -9,19 +9,14 @@
 //! not a target: a ratio below it needs less error at equal spp (a better estimator), since no
 //! amount of speed gets there.
 //!
-//! Both rates are one core's, measured on one render ([`SIZE`]², [`SPP`] spp, `mis` + Sobol,
-//! the setting of `tessera-bench bvh`): the render timed alone (the faster of two runs), and its
+//! Both rates are one core's, measured on one render (`tessera-bench bvh`'s default size and
+//! spp, `mis` + Sobol): the render timed alone (the faster of two runs), and its
 //! logged rays through Embree ([`crate::bench::embree`]). Rays per sample do not depend on the
 //! image's size or the thread count, so one core's rates stand for the compared render's.
-use crate::bench::bvh::render_one_core;
+use crate::bench::bvh::{RENDER_SIZE as SIZE, RENDER_SPP as SPP};
 use crate::bench::embree::{self, EmbreeRate};
-use crate::bench::same_rays::log_rays;
+use crate::bench::same_rays::{log_rays, render_timed};
 use tessera_worker::tracer::Scene;
-
-/// The measured render's width and height.
-pub const SIZE: u32 = 128;
-/// The measured render's samples per pixel.
-pub const SPP: u32 = 16;
 
 /// Prints the floor under each (spp, ratio) of bundled scene `name`, or why it was not measured.
 pub fn say(python: &str, name: &str, scene: &Scene, ratios: &[(u32, f64)]) {
@@ -48,12 +43,7 @@ pub fn say(python: &str, name: &str, scene: &Scene, ratios: &[(u32, f64)]) {
 /// (the render's rays per second, Embree's rate on the same rays), one core each.
 fn rates(python: &str, name: &str, scene: &Scene) -> anyhow::Result<(f64, EmbreeRate)> {
     let rays = log_rays(scene, SIZE, SPP)?;
-    let mut fastest = f64::INFINITY;
-    for _ in 0..2 {
-        let (traced, secs) = render_one_core(scene, SIZE, SPP)?;
-        anyhow::ensure!(traced == rays.len() as u64, "the render traced {traced} rays, its log holds {}", rays.len());
-        fastest = fastest.min(secs);
-    }
+    let fastest = render_timed(scene, SIZE, SPP, &rays)?.min(render_timed(scene, SIZE, SPP, &rays)?);
     let embree = embree::trace(python, name, &rays)?;
     Ok((rays.len() as f64 / fastest, embree))
 }
