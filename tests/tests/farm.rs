@@ -83,27 +83,33 @@ fn progress_is_monotone_noise_falls_and_events_and_preview_work() {
     let farm = Farm::start("progress", 2);
     rt.block_on(async {
         let c = farm.client();
-        let job = c.submit(&request(Some(128))).await.unwrap();
+        // History rows are at least 100 ms of render time apart, so the job must last long
+        // enough for several: 128×96 at 256 spp takes over a second on two workers (a 64×48
+        // job at 128 spp ended in 0.21 s with three rows on an AMD Zen 5).
+        let job = c.submit(&JobRequest { width: 128, height: 96, ..request(Some(256)) }).await.unwrap();
         let mut seen = Vec::new();
         let events = sse_events(&farm.url, &job.id);
         let done = c.wait(&job.id, |j| seen.push(j.progress.samples_done)).await.unwrap();
         assert!(seen.windows(2).all(|w| w[0] <= w[1]), "monotone: {seen:?}");
-        assert_eq!(done.progress.samples_done, 128.0);
+        assert_eq!(done.progress.samples_done, 256.0);
         assert_eq!(done.progress.fraction, 1.0);
         let h = &done.history;
         assert!(h.len() >= 4, "history has rows: {h:?}");
-        // Noise falls roughly as 1/samples: from 8 to 128 spp (16×) it should drop 8× to 32×.
+        assert!(h.windows(2).all(|w| w[0][0] < w[1][0] && w[0][1] <= w[1][1]), "rows in time and spp order: {h:?}");
+        // Noise falls roughly as 1/samples: from the first row past 8 spp to the last, by the
+        // ratio of their spp within a factor of 2.
         let first = h.iter().find(|r| r[1] >= 8.0 && r[2] > 0.0).unwrap();
         let last = h.last().unwrap();
         let ratio = first[2] / last[2];
         let expected = last[1] / first[1];
+        assert!(expected >= 2.0, "rows span the render: {h:?}");
         assert!(ratio > expected / 2.0 && ratio < expected * 2.0, "noise ratio {ratio} for {expected}× samples");
         let events = events.await.unwrap();
         assert!(events.iter().filter(|e| e.starts_with("event: progress")).count() >= 2, "{events:?}");
         assert!(events.last().unwrap().starts_with("event: end"));
         let png = c.bytes(&format!("/v1/jobs/{}/preview.png", job.id)).await.unwrap();
         let img = image::load_from_memory(&png).expect("preview decodes");
-        assert_eq!((img.width(), img.height()), (64, 48));
+        assert_eq!((img.width(), img.height()), (128, 96));
     });
 }
 
