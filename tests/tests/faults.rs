@@ -46,11 +46,13 @@ fn cornell(size: u32, spp: u32) -> JobRequest {
 
 #[test]
 fn killing_workers_and_the_coordinator_mid_render_changes_no_bit() {
-    let req = cornell(96, 128);
+    // Large enough to be still running when the coordinator is killed at 55 %, on fast hosts
+    // too (on a Zen 5, three workers render this in about a second).
+    let req = cornell(128, 128);
     let dir = temp_dir("faults-reference");
     let reference = dir.join("reference.exr");
     let out = Command::new(tessera_bin())
-        .args(["render", "cornell-box", "--spp", "128", "--width", "96", "--height", "96", "--seed", "7", "--tile-size", "32", "--batch-spp", "8", "-o"])
+        .args(["render", "cornell-box", "--spp", "128", "--width", "128", "--height", "128", "--seed", "7", "--tile-size", "32", "--batch-spp", "8", "-o"])
         .arg(&reference)
         .output()
         .unwrap();
@@ -77,7 +79,7 @@ fn killing_workers_and_the_coordinator_mid_render_changes_no_bit() {
         assert_eq!(done.state, JobState::Done, "{done:?}");
         assert_eq!(done.progress.samples_done, 128.0, "every sample counted exactly once");
         let credited: u64 = done.contributions.iter().map(|c| c.samples).sum();
-        assert_eq!(credited, 96 * 96 * 128, "workers are credited once per merged sample, across the restart: {:?}", done.contributions);
+        assert_eq!(credited, 128 * 128 * 128, "workers are credited once per merged sample, across the restart: {:?}", done.contributions);
         farm.client().bytes(&format!("/v1/jobs/{id}/image.exr")).await.unwrap()
     });
     let got = pixels(&exr);
