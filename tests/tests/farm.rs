@@ -85,7 +85,7 @@ fn progress_is_monotone_noise_falls_and_events_and_preview_work() {
         let c = farm.client();
         // History rows are at least 100 ms of render time apart, so the job must last long
         // enough for several: 128×96 at 256 spp takes over a second on two workers (a 64×48
-        // job at 128 spp ended in 0.21 s with three rows on an AMD Zen 5).
+        // job at 128 spp ended in 0.21 s with three rows in CI).
         let job = c.submit(&JobRequest { width: 128, height: 96, ..request(Some(256)) }).await.unwrap();
         let mut seen = Vec::new();
         let events = sse_events(&farm.url, &job.id);

@@ -47,7 +47,7 @@ fn cornell(size: u32, spp: u32) -> JobRequest {
 #[test]
 fn killing_workers_and_the_coordinator_mid_render_changes_no_bit() {
     // Large enough to be still running when the coordinator is killed at 55 %, on fast hosts
-    // too (on a Zen 5, three workers render this in about a second).
+    // too (three workers on a 2-core AMD EPYC render it in about a second).
     let req = cornell(128, 128);
     let dir = temp_dir("faults-reference");
     let reference = dir.join("reference.exr");
