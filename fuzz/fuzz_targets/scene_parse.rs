@@ -8,7 +8,7 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     static QUIET: std::sync::Once = std::sync::Once::new();
     QUIET.call_once(|| std::panic::set_hook(Box::new(|_| {})));
     // Parsing only (fast); BVH builds are covered by the corpus replay in `cargo test`.
-    if let Err(e) = tessera_worker::scene::parse_limited(data, None, 100_000) {
+    if let Err(e) = tessera_render::scene::parse_limited(data, None, 100_000) {
         assert!(!e.0.contains("the glTF reader failed") && !e.0.is_empty(), "{e}");
     }
 });

@@ -29,13 +29,13 @@ pub fn names() -> Vec<&'static str> {
 }
 
 /// Loads a scene given as a bundled name or a path to a `.gltf`/`.glb` file.
-pub fn load(scene: &str) -> anyhow::Result<tessera_worker::tracer::Scene> {
+pub fn load(scene: &str) -> anyhow::Result<tessera_render::tracer::Scene> {
     let path = Path::new(scene);
     if path.exists() {
-        return Ok(tessera_worker::scene::load_path(path)?);
+        return Ok(tessera_render::scene::load_path(path)?);
     }
     match get(scene) {
-        Some(bytes) => Ok(tessera_worker::scene::load_bytes(bytes, None)?),
+        Some(bytes) => Ok(tessera_render::scene::load_bytes(bytes, None)?),
         None => anyhow::bail!("{scene:?} is neither a file nor a bundled scene ({})", names().join(", ")),
     }
 }

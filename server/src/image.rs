@@ -1,6 +1,6 @@
 //! Merged partial sums → the layers of the output image.
 use crate::output::ImageLayers;
-use tessera_worker::tracer::PixelSums;
+use tessera_render::tracer::PixelSums;
 
 pub fn layers(width: u32, height: u32, pixels: &[PixelSums]) -> ImageLayers {
     let mut img = ImageLayers::zeroed(width as usize, height as usize);

@@ -13,7 +13,7 @@
 //! that follow. `tessera serve` keeps the default: a coordinator cycles its unit buffers through
 //! exactly that reuse (its round trips fell by half with a delay of 0).
 //! `MIMALLOC_PURGE_DELAY` in the environment overrides all of this.
-use tessera_worker::scene::Preparation;
+use tessera_render::scene::Preparation;
 
 /// mimalloc's `mi_option_purge_delay` (its index in `mi_option_e`, the same in mimalloc 2 and 3;
 /// the test below checks it against the documented default).

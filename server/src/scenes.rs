@@ -91,7 +91,7 @@ impl SceneStore {
 
     /// Parses (no BVH) and describes a scene, refusing one with no triangles or too many.
     fn describe(&self, id: &str, bytes: &[u8]) -> Result<SceneMeta, String> {
-        let parsed = tessera_worker::scene::parse_limited(bytes, None, self.max_triangles).map_err(|e| e.0)?;
+        let parsed = tessera_render::scene::parse_limited(bytes, None, self.max_triangles).map_err(|e| e.0)?;
         let triangles = parsed.triangles() as u64;
         if triangles > self.max_triangles {
             return Err(format!("the scene has {triangles} triangles; this coordinator accepts at most {}", self.max_triangles));

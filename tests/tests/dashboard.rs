@@ -136,7 +136,7 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
     let units = b.until("the worker's row", 20, r##"const r = document.querySelector("#workers tbody tr"); return r && r.cells[4].textContent;"##).await;
     assert_eq!(units, "2", "one 64×64 tile × two 16-spp batches");
     let renderer = b.js(r##"return document.querySelector("#workers tbody tr").cells[8].textContent;"##).await;
-    assert_eq!(renderer, tessera_worker::renderer_id(), "the worker's renderer id");
+    assert_eq!(renderer, tessera_render::renderer_id(), "the worker's renderer id");
     // Linux workers report their resident memory with each result.
     let memory = b.js(r##"return document.querySelector("#workers tbody tr").cells[7].textContent;"##).await;
     let memory = memory.as_str().unwrap();
@@ -150,7 +150,7 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
     let long = api.submit(&long).await.unwrap();
     let script = format!(r#"const r = document.querySelector('tr[data-worker="{}"]'); const t = r && r.cells[3].textContent; return t && t.startsWith("idle: ") && t;"#, reg["worker_id"].as_str().unwrap());
     let idle = b.until("the other renderer's idle reason", 20, &script).await;
-    let expected = format!("idle: jobs {} are kept on renderer {} while a worker of it is live", long.id, tessera_worker::renderer_id());
+    let expected = format!("idle: jobs {} are kept on renderer {} while a worker of it is live", long.id, tessera_render::renderer_id());
     assert_eq!(idle, expected);
     // The running job deleted from its page (the confirmation answered yes): gone from the list
     // and from the coordinator.

@@ -1,7 +1,7 @@
 //! All four estimators render the same Cornell box; MIS does it with the least variance.
 use crate::harness::{channel, independent_settings, region_mean};
 use tessera_server::bundled;
-use tessera_worker::tracer::{Estimator, PixelSums, render_tile};
+use tessera_render::tracer::{Estimator, PixelSums, render_tile};
 
 const SIZE: u32 = 32;
 

@@ -58,7 +58,7 @@ fn one_worker_three_workers_and_tessera_render_give_the_same_bits() {
     let one = rt.block_on(run_job(&Farm::start("one", 1), &req)).1;
     let (three_job, three) = rt.block_on(run_job(&Farm::start("three", 3), &req));
     // Every worker process registered with the renderer id of this build, and the job says so.
-    assert_eq!(three_job.renderers, [tessera_worker::renderer_id()]);
+    assert_eq!(three_job.renderers, [tessera_render::renderer_id()]);
     let dir = temp_dir("local");
     let local = dir.join("local.exr");
     let out = Command::new(tessera_bin())

@@ -2,7 +2,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
-use tessera_worker::tracer::PixelSums;
+use tessera_render::tracer::PixelSums;
 
 pub fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").to_path_buf()
@@ -66,8 +66,8 @@ pub fn channel(pixels: &[PixelSums], c: usize) -> Vec<(f64, f64)> {
 }
 
 /// Cornell-box render settings with independent samples, so the measured spread is a valid error bar.
-pub fn independent_settings(size: (u32, u32), seed: u64, estimator: tessera_worker::tracer::Estimator) -> tessera_worker::tracer::RenderSettings {
-    use tessera_worker::tracer::{RenderSettings, integrator::PathSettings, sampler::SamplerKind};
+pub fn independent_settings(size: (u32, u32), seed: u64, estimator: tessera_render::tracer::Estimator) -> tessera_render::tracer::RenderSettings {
+    use tessera_render::tracer::{RenderSettings, integrator::PathSettings, sampler::SamplerKind};
     RenderSettings {
         width: size.0,
         height: size.1,

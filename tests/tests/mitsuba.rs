@@ -3,7 +3,7 @@
 use crate::harness::{channel, independent_settings, region_mean, repo_root};
 use tessera_server::bundled;
 use tessera_server::output::decode_exr;
-use tessera_worker::tracer::{Estimator, Scene, render_tile};
+use tessera_render::tracer::{Estimator, Scene, render_tile};
 
 /// Image means, and every 16×16 region, within 4σ of the reference, σ combining both images'
 /// standard errors (each per-pixel variance is estimated without bias: our samples are
@@ -95,5 +95,5 @@ fn flat_shaded(name: &str) -> Scene {
             prim["attributes"].as_object_mut().unwrap().remove("NORMAL");
         }
     }
-    tessera_worker::scene::load_bytes(&serde_json::to_vec(&doc).unwrap(), None).unwrap()
+    tessera_render::scene::load_bytes(&serde_json::to_vec(&doc).unwrap(), None).unwrap()
 }

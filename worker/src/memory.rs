@@ -5,7 +5,7 @@
 //! Also a hook ([`on_prepare`]) through which the process that links the worker learns what kind
 //! of frame scene it is about to prepare: the allocator is the binary's choice, not this crate's,
 //! and how long freed pages should stay resident depends on what comes next (`tessera_server::purge`).
-use crate::scene::Preparation;
+use tessera_render::scene::Preparation;
 use std::sync::OnceLock;
 
 /// Resident memory of this process, in bytes.

@@ -19,8 +19,8 @@ use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::path::PathBuf;
 use std::time::Instant;
-use tessera_worker::tracer::ray::Ray;
-use tessera_worker::tracer::{Scene, render_tile};
+use tessera_render::tracer::ray::Ray;
+use tessera_render::tracer::{Scene, render_tile};
 use crate::bench::{refit, same_rays};
 use crate::bench::stock::StockBvh;
 

@@ -10,7 +10,7 @@
 //! Without Mitsuba, or for the generated field (not a glTF), the study says why and goes on.
 use crate::bench::mitsuba::python_script;
 use crate::bench::same_rays::write_rays;
-use tessera_worker::tracer::ray_log::LoggedRay;
+use tessera_render::tracer::ray_log::LoggedRay;
 
 const INSTALL: &str = "needs `pip install mitsuba numpy` and Debian's libllvm19";
 
@@ -71,8 +71,8 @@ mod tests {
     use super::*;
     use glam::Vec3;
     use std::os::unix::fs::PermissionsExt;
-    use tessera_worker::tracer::ray::Ray;
-    use tessera_worker::tracer::ray_log::RayQuery;
+    use tessera_render::tracer::ray::Ray;
+    use tessera_render::tracer::ray_log::RayQuery;
 
     #[test]
     fn the_scripts_total_line_is_read() {

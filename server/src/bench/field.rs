@@ -14,9 +14,9 @@
 use glam::{Mat4, Vec3};
 use serde_json::json;
 use std::f32::consts::PI;
-use tessera_worker::tracer::camera::Camera;
-use tessera_worker::tracer::material::Material;
-use tessera_worker::tracer::scene::Mesh;
+use tessera_render::tracer::camera::Camera;
+use tessera_render::tracer::material::Material;
+use tessera_render::tracer::scene::Mesh;
 
 /// Albedo of the spheres and the ground, and radiance of the light.
 const GREY: f32 = 0.6;
@@ -142,7 +142,7 @@ fn glb(spheres: &[[Vec3; 3]], sliding: bool) -> Vec<u8> {
     if !animations.is_empty() {
         gltf["animations"] = json!(animations);
     }
-    tessera_worker::scene::pack_glb(&gltf.to_string(), &bin.bytes)
+    tessera_render::scene::pack_glb(&gltf.to_string(), &bin.bytes)
 }
 
 /// The binary chunk being written, with a buffer view and an accessor per array of f32s.
@@ -241,7 +241,7 @@ mod tests {
         assert_eq!(spheres.len(), PER_SPHERE);
         let (mesh, materials, camera) = field_parts(spheres.clone());
         let glb = field_glb(&spheres);
-        let parsed = tessera_worker::scene::parse(&glb, None).expect("the written field parses");
+        let parsed = tessera_render::scene::parse(&glb, None).expect("the written field parses");
         assert_eq!(parsed.effects(), ["area_lights", "lambert"], "purely diffuse, lit by the emitter");
         let scene = parsed.build();
         // Near the origin the loader keeps positions as they are (no rebase), so the triangles
@@ -260,7 +260,7 @@ mod tests {
     /// rounding; t1 and t2 on keys) while the light and the ground stay. The next frame refits the last one's BVH.
     #[test]
     fn the_sliding_field_moves_its_rows_against_each_other() {
-        use tessera_worker::scene::{Preparation, Sequence};
+        use tessera_render::scene::{Preparation, Sequence};
         let spheres = sphere_field(4 * PER_SPHERE); // two rows of two
         let seq = Sequence::parse(&sliding_field_glb(&spheres), None).expect("the sliding field parses");
         let info = seq.animations();

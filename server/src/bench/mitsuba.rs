@@ -28,9 +28,9 @@ use super::accuracy::reference::{self, Reference};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
-use tessera_worker::tracer::integrator::{DEFAULT_ROULETTE_DEPTH, PathSettings, Roulette};
-use tessera_worker::tracer::sampler::SamplerKind;
-use tessera_worker::tracer::{PixelSums, RenderSettings, Scene, render_tile};
+use tessera_render::tracer::integrator::{DEFAULT_ROULETTE_DEPTH, PathSettings, Roulette};
+use tessera_render::tracer::sampler::SamplerKind;
+use tessera_render::tracer::{PixelSums, RenderSettings, Scene, render_tile};
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct MitsubaBench {
@@ -127,7 +127,7 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
 
 fn run_scene(b: &MitsubaBench, name: &str) -> anyhow::Result<Vec<Row>> {
     let bytes = crate::bundled::get(name).ok_or_else(|| anyhow::anyhow!("no bundled scene {name:?}; bundled: {}", crate::bundled::names().join(", ")))?;
-    let scene = tessera_worker::scene::load_bytes(bytes, None)?;
+    let scene = tessera_render::scene::load_bytes(bytes, None)?;
     let reference = reference::rendered_with(&scene, bytes, name, b.size, b.reference_spp, SamplerKind::Independent, &b.cache)?;
     let mut skip_mitsuba = b.skip_mitsuba;
     crate::say!(
@@ -309,5 +309,4 @@ fn script_path(script: &str) -> anyhow::Result<PathBuf> {
 }
 
 #[cfg(test)]
-#[path = "mitsuba_tests.rs"]
 mod tests;

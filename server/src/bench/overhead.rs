@@ -22,7 +22,7 @@ use tessera_proto::JobRequest;
 use tessera_worker::client::render_settings;
 use crate::image;
 use crate::output::encode_exr;
-use tessera_worker::tracer::{PixelSums, RenderSettings, RowQueue, Scene, Tile};
+use tessera_render::tracer::{PixelSums, RenderSettings, RowQueue, Scene, Tile};
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct OverheadBench {

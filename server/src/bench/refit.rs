@@ -10,8 +10,8 @@ use crate::bench::heap;
 use glam::Vec3;
 use std::f32::consts::TAU;
 use std::time::Instant;
-use tessera_worker::tracer::accel::{Accel, BvhKind};
-use tessera_worker::tracer::ray::Ray;
+use tessera_render::tracer::accel::{Accel, BvhKind};
+use tessera_render::tracer::ray::Ray;
 
 /// The waves' amplitudes as fractions of the scene's largest extent, and their wavelength.
 const AMPLITUDES: [f32; 3] = [0.002, 0.01, 0.05];

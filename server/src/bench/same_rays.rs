@@ -10,10 +10,10 @@
 use crate::bench::bvh::{BvhBench, render_one_core};
 use crate::bench::overhead::settings;
 use crate::bench::stock::{StockBvh, ours_counted, ours_logged};
-use tessera_worker::tracer::accel::{Accel, WalkCounts};
-use tessera_worker::tracer::ray_log::{LoggedRay, RayLog, RayQuery};
+use tessera_render::tracer::accel::{Accel, WalkCounts};
+use tessera_render::tracer::ray_log::{LoggedRay, RayLog, RayQuery};
 use std::path::Path;
-use tessera_worker::tracer::{Scene, render_tile_logged};
+use tessera_render::tracer::{Scene, render_tile_logged};
 
 /// One round's rates, in rays per second on one core.
 #[derive(Clone, Copy, Debug)]
@@ -161,7 +161,7 @@ pub(crate) fn write_rays(path: &Path, rays: &[LoggedRay]) -> anyhow::Result<()> 
 mod tests {
     use super::*;
     use glam::Vec3;
-    use tessera_worker::tracer::ray::Ray;
+    use tessera_render::tracer::ray::Ray;
 
     #[test]
     fn saved_rays_are_eight_little_endian_floats_each_in_order() {

@@ -16,7 +16,7 @@
 use crate::bench::bvh::{RENDER_SIZE as SIZE, RENDER_SPP as SPP};
 use crate::bench::embree::{self, EmbreeRate};
 use crate::bench::same_rays::{log_rays, render_timed};
-use tessera_worker::tracer::Scene;
+use tessera_render::tracer::Scene;
 
 /// Prints the floor under each (spp, ratio) of bundled scene `name`, or why it was not measured.
 pub fn say(python: &str, name: &str, scene: &Scene, ratios: &[(u32, f64)]) {
@@ -55,7 +55,7 @@ mod tests {
 
     #[test]
     fn without_mitsuba_it_says_why_instead_of_failing() {
-        let scene = tessera_worker::scene::load_bytes(crate::bundled::get("cornell-box").expect("bundled"), None).expect("loads");
+        let scene = tessera_render::scene::load_bytes(crate::bundled::get("cornell-box").expect("bundled"), None).expect("loads");
         let err = rates("/nonexistent/python3", "cornell-box", &scene).expect_err("no interpreter");
         assert!(format!("{err:#}").contains("/nonexistent/python3"), "{err:#}");
         say("/nonexistent/python3", "cornell-box", &scene, &[(64, 1.7)]);

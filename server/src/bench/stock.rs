@@ -6,9 +6,9 @@ use glam::Vec3;
 use obvhs::cwbvh::CwBvh;
 use obvhs::triangle::Triangle;
 use std::time::Instant;
-use tessera_worker::tracer::accel::{Accel, WalkCounts};
-use tessera_worker::tracer::ray::Ray;
-use tessera_worker::tracer::ray_log::{LoggedRay, RayQuery};
+use tessera_render::tracer::accel::{Accel, WalkCounts};
+use tessera_render::tracer::ray::Ray;
+use tessera_render::tracer::ray_log::{LoggedRay, RayQuery};
 
 pub struct StockBvh {
     tris: Vec<Triangle>,

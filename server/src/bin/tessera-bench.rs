@@ -32,7 +32,7 @@ use clap::{Parser, Subcommand};
 use std::time::{Duration, Instant};
 use tessera_proto::{JobRequest, PartialSums, TileRect, WirePixel};
 use tessera_server::bundled;
-use tessera_worker::tracer::{KernelBits, render_tile_kernel};
+use tessera_render::tracer::{KernelBits, render_tile_kernel};
 
 #[derive(Parser)]
 #[command(about = "Tessera benchmarks: print figures, assert nothing")]
@@ -238,7 +238,7 @@ async fn watch(url: String, id: String, deadline: Instant) -> anyhow::Result<u64
 /// With `next_with_result`, each result asks for the next lease, as workers do.
 async fn fake_worker(i: usize, http: reqwest::Client, url: String, template: Vec<u8>, deadline: Instant, next_with_result: bool) -> anyhow::Result<u64> {
     let reg: tessera_proto::Registration =
-        http.post(format!("{url}/v1/workers")).json(&tessera_proto::WorkerHello { name: format!("fake{i}"), threads: 1, renderer: tessera_worker::renderer_id().to_owned() }).send().await?.json().await?;
+        http.post(format!("{url}/v1/workers")).json(&tessera_proto::WorkerHello { name: format!("fake{i}"), threads: 1, renderer: tessera_render::renderer_id().to_owned() }).send().await?.json().await?;
     let mut done = 0;
     let mut next: Option<tessera_proto::Lease> = None;
     while Instant::now() < deadline {

@@ -38,7 +38,7 @@ pub struct JobArgs {
     /// Russian roulette may end paths from this non-specular bounce on (smooth glass does not
     /// count; 0: off, paths run to --max-depth).
     /// Lower is faster per sample and noisier; the expected image is the same.
-    #[arg(long, default_value_t = tessera_worker::tracer::integrator::DEFAULT_ROULETTE_DEPTH)]
+    #[arg(long, default_value_t = tessera_render::tracer::integrator::DEFAULT_ROULETTE_DEPTH)]
     pub roulette_depth: u32,
     /// How a light sample chooses among the emissive triangles: auto (through a light tree from
     /// 32 of them on, or fewer that differ in what they give the scene's surfaces, such as lamps

@@ -42,7 +42,7 @@ enum Command {
 /// ids never share a job while one of each is live).
 fn long_version() -> &'static str {
     static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
-    TEXT.get_or_init(|| format!("{}\nrenderer: {}", env!("CARGO_PKG_VERSION"), tessera_worker::renderer_id()))
+    TEXT.get_or_init(|| format!("{}\nrenderer: {}", env!("CARGO_PKG_VERSION"), tessera_render::renderer_id()))
 }
 
 /// The command line, parsed. The renderer id's libm probe (about a millisecond, half of a

@@ -273,5 +273,4 @@ fn write_and_sync(temp: &Path, bytes: &[u8]) -> Result<()> {
 }
 
 #[cfg(test)]
-#[path = "exr_tests.rs"]
 mod tests;

@@ -6,7 +6,7 @@
 use super::{ImageLayers, MetaValue};
 use crate::image;
 use crate::scheduler::JobRun;
-use tessera_worker::tracer::LightSampler;
+use tessera_render::tracer::LightSampler;
 
 /// A frame's layers (mean, variance of the mean, samples: 28 bytes a pixel, not the sums' 64)
 /// and metadata, taken under the scheduler lock so that encoding (tens of milliseconds and up)

@@ -231,3 +231,18 @@ pub(super) async fn put_result(api: &Api, lease_id: &str, body: Vec<u8>) -> Resp
 pub(super) async fn samples_done(api: &Api, job: &str) -> f64 {
     api.job(job).await["progress"]["samples_done"].as_f64().expect("samples_done")
 }
+mod auth;
+mod bad_input;
+mod bad_input_cases;
+mod carried;
+mod dashboard;
+mod durability;
+mod ended;
+mod frame_release;
+mod frames;
+mod images;
+mod jobs;
+mod numerics;
+mod scenes;
+mod service;
+mod workers;

@@ -4,9 +4,9 @@ use crate::scenes::SceneMeta;
 use crate::scheduler::JobConfig;
 use tessera_proto::job::DEFAULT_FPS;
 use tessera_proto::{FrameRange, JobRequest, RenderParams};
-use tessera_worker::tracer::{Estimator, LightSampler};
-use tessera_worker::tracer::integrator::DEFAULT_ROULETTE_DEPTH;
-use tessera_worker::tracer::sampler::SamplerKind;
+use tessera_render::tracer::{Estimator, LightSampler};
+use tessera_render::tracer::integrator::DEFAULT_ROULETTE_DEPTH;
+use tessera_render::tracer::sampler::SamplerKind;
 
 pub const MAX_SIDE: u32 = 16384;
 /// 16 Mpixel: the coordinator keeps 64 bytes of f64 sums per pixel (1 GiB at this size).
@@ -54,7 +54,7 @@ pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_m
     };
     let estimator: Estimator = req.estimator.as_deref().unwrap_or("mis").parse().map_err(|e: String| AppError::field("estimator", e))?;
     let sampler: SamplerKind =
-        req.sampler.as_deref().unwrap_or("sobol").parse().map_err(|e: tessera_worker::tracer::sampler::UnknownSamplerKind| AppError::field("sampler", e.to_string()))?;
+        req.sampler.as_deref().unwrap_or("sobol").parse().map_err(|e: tessera_render::tracer::sampler::UnknownSamplerKind| AppError::field("sampler", e.to_string()))?;
     let tile_size = in_range("tile_size", req.tile_size.unwrap_or(64), 8, 1024)?;
     let tiles = width.div_ceil(tile_size) as u64 * height.div_ceil(tile_size) as u64;
     let (frames, fps) = frames(req.frames.as_ref(), width as u64 * height as u64, tiles, time_limit_ms.is_some())?;

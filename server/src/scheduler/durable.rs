@@ -10,7 +10,7 @@ use super::job::{JobConfig, JobRun};
 use super::Scheduler;
 use serde::{Deserialize, Serialize};
 use tessera_proto::JobState;
-use tessera_worker::tracer::PixelSums;
+use tessera_render::tracer::PixelSums;
 
 /// A job as stored: its settings and how far each tile's durable sums go.
 #[derive(Clone, Debug, Serialize, Deserialize)]

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use tessera_proto::{JobRequest, JobState, PartialSums, RenderParams, TileRect};
 #[cfg(test)]
-use tessera_worker::tracer::PixelSums;
+use tessera_render::tracer::PixelSums;
 
 /// Fewest samples per pixel merged before a tile may stop on its noise estimate: with fewer, the
 /// variance estimate itself is too noisy to trust.

@@ -28,20 +28,6 @@ mod leases;
 mod renderers;
 #[cfg(test)]
 mod tests;
-#[cfg(test)]
-mod tests_durable;
-#[cfg(test)]
-mod tests_frames;
-#[cfg(test)]
-mod tests_history;
-#[cfg(test)]
-mod tests_idle;
-#[cfg(test)]
-mod tests_numerics;
-#[cfg(test)]
-mod tests_pause;
-#[cfg(test)]
-mod tests_renderers;
 mod tile;
 
 pub use durable::{JobCheckpoint, JobRecord, ReleasedTile, RestoredTile, TileCheckpoint, TileMark};
@@ -81,7 +67,7 @@ pub struct Accepted {
 pub struct WorkerRec {
     pub name: String,
     pub threads: u32,
-    /// Its renderer id (`tessera_worker::renderer_id`; empty from workers older than it).
+    /// Its renderer id (`tessera_render::renderer_id`; empty from workers older than it).
     pub renderer: String,
     pub last_seen: u64,
     pub units_done: u64,
@@ -147,7 +133,7 @@ impl Scheduler {
     /// A worker of this process's renderer (tests).
     #[cfg(test)]
     pub fn register_worker(&mut self, name: &str, threads: u32, now: u64) -> String {
-        self.register(name, threads, tessera_worker::renderer_id(), now)
+        self.register(name, threads, tessera_render::renderer_id(), now)
     }
 
     pub fn register(&mut self, name: &str, threads: u32, renderer: &str, now: u64) -> String {

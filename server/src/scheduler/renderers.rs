@@ -1,6 +1,6 @@
 //! Keeping a job on one renderer, so its image's bits do not depend on who rendered what.
 //!
-//! Workers name their renderer when they register (`tessera_worker::renderer_id`: the source
+//! Workers name their renderer when they register (`tessera_render::renderer_id`: the source
 //! hash of the build and a probe of its libm). Two workers of one renderer give the same bits
 //! for a unit; two of different renderers may not, and an image merged from both would then
 //! depend on which worker took which unit. So a job's units go to workers of the renderer it

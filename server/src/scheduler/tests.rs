@@ -282,3 +282,10 @@ fn a_worker_leaving_hands_its_leases_straight_back() {
     assert_eq!(again[..2].iter().map(|g| g.tile).collect::<Vec<_>>(), held.iter().map(|g| g.tile).collect::<Vec<_>>());
     assert_eq!(s.workers().map(|(id, w)| (id.clone(), w.failures)).collect::<Vec<_>>(), [(b, 0)], "a is forgotten, b blamed for nothing");
 }
+mod durable;
+mod frames;
+mod history;
+mod idle;
+mod numerics;
+mod pause;
+mod renderers;

@@ -4,7 +4,7 @@ use crate::image::rel_mse;
 use std::cell::Cell;
 use std::collections::{BTreeMap, BTreeSet};
 use tessera_proto::{PartialSums, TileRect};
-use tessera_worker::tracer::PixelSums;
+use tessera_render::tracer::PixelSums;
 
 pub struct TileRun {
     pub rect: TileRect,

@@ -2,7 +2,7 @@
 use super::*;
 use crate::scheduler::{JobConfig, TileCheckpoint};
 use tessera_proto::{JobRequest, JobState, RenderParams};
-use tessera_worker::tracer::PixelSums;
+use tessera_render::tracer::PixelSums;
 
 fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("tessera-store-{}-{name}", std::process::id()));

@@ -4,7 +4,7 @@
 //! reserved u32, dropped u64, max_weight f64, then per pixel Σrgb, Σrgb², ΣY² (7 × f64) and the
 //! count (u64), then a CRC-32 of everything before it. A file that is short, long, or fails its
 //! checksum is refused, never half-read.
-use tessera_worker::tracer::PixelSums;
+use tessera_render::tracer::PixelSums;
 
 const MAGIC: &[u8; 8] = b"TSRTILE1";
 const HEADER: usize = 8 + 4 * 4 + 8 + 8;

@@ -4,8 +4,8 @@
 //! per worker and the next frame of an animation can refit the last one's BVH.
 //! Scenes that failed to load are remembered too (loading is deterministic), so a broken scene
 //! is not downloaded again for every lease of its job.
-use crate::scene::{AnimationInfo, Sequence};
-use crate::tracer::Scene;
+use tessera_render::scene::{AnimationInfo, Sequence};
+use tessera_render::tracer::Scene;
 use std::collections::VecDeque;
 use std::sync::Arc;
 

@@ -1,7 +1,7 @@
 //! Between the wire types of `tessera_proto` and the tracer's own (the tracer knows no proto).
-use crate::tracer::integrator::PathSettings;
-use crate::tracer::sampler::SamplerKind;
-use crate::tracer::{Estimator, LightSampler, RenderSettings, Roulette, Tile, TileSums};
+use tessera_render::tracer::integrator::PathSettings;
+use tessera_render::tracer::sampler::SamplerKind;
+use tessera_render::tracer::{Estimator, LightSampler, RenderSettings, Roulette, Tile, TileSums};
 use glam::Vec3;
 use std::str::FromStr;
 use tessera_proto::{PartialSums, RenderParams, TileRect, WirePixel};
@@ -54,7 +54,7 @@ pub(crate) fn tile(rect: TileRect) -> Tile {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tracer::PixelSums;
+    use tessera_render::tracer::PixelSums;
 
     fn params() -> RenderParams {
         RenderParams {

@@ -63,7 +63,7 @@ pub use convert::{render_settings, to_wire};
 
 use anyhow::{Context, anyhow};
 use api::{Api, LeaseAnswer};
-use crate::scene::Preparation;
+use tessera_render::scene::Preparation;
 use cache::SceneCache;
 use prefetch::Prefetch;
 use queue::Queued;
@@ -324,7 +324,7 @@ impl Worker {
     /// coordinator does not stop them; that coordinator mixes renderers anyway.
     async fn register(&self, stop: &Stop) -> anyhow::Result<Option<Registration>> {
         let threads = u32::try_from(self.pool.current_num_threads()).unwrap_or(u32::MAX);
-        let mut hello = WorkerHello { name: self.name.clone(), threads, renderer: crate::renderer_id().to_owned() };
+        let mut hello = WorkerHello { name: self.name.clone(), threads, renderer: tessera_render::renderer_id().to_owned() };
         let mut answer = until_done("registration", stop, Duration::ZERO, || self.api.register(&hello)).await;
         if let Retried::Fatal(e) = &answer
             && e.contains("unknown field `renderer`")

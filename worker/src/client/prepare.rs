@@ -7,9 +7,9 @@ use super::Worker;
 use super::api::CallError;
 use super::cache::FrameKey;
 use super::retry::RETRY;
-use crate::scene::animation::{self, AnimationInfo};
-use crate::scene::{Preparation, Sequence};
-use crate::tracer::Scene;
+use tessera_render::scene::animation::{self, AnimationInfo};
+use tessera_render::scene::{Preparation, Sequence};
+use tessera_render::tracer::Scene;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tessera_proto::Lease;
@@ -154,7 +154,7 @@ impl Worker {
             hook(Preparation::Build); // a file parsed is followed by its first build
             let started = Instant::now();
             let size = bytes.len();
-            let parsed = pool.install(|| Sequence::parse_owned(bytes, None, crate::scene::DEFAULT_MAX_TRIANGLES));
+            let parsed = pool.install(|| Sequence::parse_owned(bytes, None, tessera_render::scene::DEFAULT_MAX_TRIANGLES));
             let mut cache = cache.lock().expect("scene cache lock");
             match parsed {
                 Ok(seq) => {

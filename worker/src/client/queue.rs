@@ -7,7 +7,7 @@
 //! process down. Dropping a [`Queued`] cancels its unit, so a lease given up before its unit
 //! started costs the pool (almost) nothing.
 use super::prepare::Prepared;
-use crate::tracer::{RowQueue, TileSums};
+use tessera_render::tracer::{RowQueue, TileSums};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
@@ -104,7 +104,7 @@ fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
 mod tests {
     use super::*;
     use super::super::prepare::How;
-    use crate::tracer::Tile;
+    use tessera_render::tracer::Tile;
     use std::sync::atomic::{AtomicBool, AtomicU32};
     use std::time::Duration;
 

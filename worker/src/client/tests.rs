@@ -1,11 +1,10 @@
 //! The worker loop against a mock coordinator (axum on 127.0.0.1:0) that serves the bundled
 //! furnace scene, hands out a scripted sequence of answers and records what the worker sends.
 use super::*;
-use crate::tracer::render_tile;
+use tessera_render::tracer::render_tile;
 use tessera_proto::{PartialSums, RenderParams, TileRect};
 use tokio::sync::oneshot;
 
-#[path = "tests_mock.rs"]
 mod mock;
 use mock::{Mock, Step, serve_on, start};
 
@@ -103,7 +102,7 @@ fn long(id: &str) -> Step {
 /// Checks an uploaded body against `render_tile` of the same unit, bit for bit.
 fn assert_bit_exact(body: &[u8], step_params: &RenderParams) {
     let got = PartialSums::decode(body).expect("the upload decodes");
-    let scene = crate::scene::load_path(&furnace_path()).unwrap();
+    let scene = tessera_render::scene::load_path(&furnace_path()).unwrap();
     let settings = render_settings(step_params).unwrap();
     let expected = render_tile(&scene, &settings, convert::tile(got.tile), got.samples[0]..got.samples[1]).unwrap();
     assert_eq!(body, to_wire(&expected, got.samples).encode().as_slice(), "upload for {:?} {:?}", got.tile, got.samples);
@@ -389,12 +388,12 @@ async fn frames_of_an_animation_refit_and_report_how_their_scene_was_prepared() 
         let (rss, peak): (u64, u64) = (rss.parse().expect("x-tessera-rss in bytes"), peak.parse().expect("x-tessera-peak-rss in bytes"));
         assert!(rss > 0 && peak >= rss, "the process's resident set {rss} and peak {peak}");
     }
-    let seq = crate::scene::Sequence::parse(&std::fs::read(animated_path()).unwrap(), None).unwrap();
+    let seq = tessera_render::scene::Sequence::parse(&std::fs::read(animated_path()).unwrap(), None).unwrap();
     for ((id, _, body, _), n) in log.results.iter().zip([0u32, 3, 3, 1]) {
         let got = PartialSums::decode(body).unwrap();
         let scene = seq.scene_at(Some(0), f64::from(n) / 24.0).unwrap();
         let mut settings = render_settings(&params(16, 8)).unwrap();
-        settings.seed = crate::tracer::sampler::frame_seed(settings.seed, n);
+        settings.seed = tessera_render::tracer::sampler::frame_seed(settings.seed, n);
         let expected = render_tile(&scene, &settings, convert::tile(got.tile), 0..2).unwrap();
         assert_eq!(body, &to_wire(&expected, got.samples).encode(), "{id}");
     }
@@ -496,7 +495,6 @@ async fn shutdown_gives_back_a_prefetched_lease() {
     assert_eq!(log.results.len(), 1, "only the warm-up unit is uploaded");
 }
 
-#[path = "tests_carried.rs"]
 mod carried;
 
 /// Why the coordinator gives no work is logged when it changes, not on every poll.
@@ -517,5 +515,4 @@ fn an_idle_reason_is_logged_once_per_change() {
     assert!(!api.note_idle(Some(&plain)));
 }
 
-#[path = "tests_scene_cache.rs"]
 mod scene_cache;

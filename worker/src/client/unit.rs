@@ -4,7 +4,7 @@ use super::prepare::Prepared;
 use super::queue::{self, Queued};
 use super::retry::Stop;
 use super::{SHUTDOWN_GRACE, Worker, convert, render_settings};
-use crate::tracer::{RowQueue, TileSums};
+use tessera_render::tracer::{RowQueue, TileSums};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 use tessera_proto::Lease;
@@ -119,10 +119,10 @@ impl Worker {
 }
 
 /// The unit's render settings; frame n of an animation is rendered with its own seed
-/// ([`frame_seed`](crate::tracer::sampler::frame_seed), the job's seed for frame 0).
-fn check_unit(lease: &Lease) -> Result<crate::tracer::RenderSettings, String> {
+/// ([`frame_seed`](tessera_render::tracer::sampler::frame_seed), the job's seed for frame 0).
+fn check_unit(lease: &Lease) -> Result<tessera_render::tracer::RenderSettings, String> {
     let mut settings = render_settings(&lease.params)?;
-    settings.seed = crate::tracer::sampler::frame_seed(settings.seed, lease.frame);
+    settings.seed = tessera_render::tracer::sampler::frame_seed(settings.seed, lease.frame);
     let [s0, s1] = lease.samples;
     if s1 <= s0 {
         return Err(format!("empty sample range [{s0}, {s1})"));

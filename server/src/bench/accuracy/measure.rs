@@ -6,9 +6,9 @@
 //! exactly those of one n-spp render, and the whole ladder costs what its last rung costs.
 use super::reference::Reference;
 use std::time::Instant;
-use tessera_worker::tracer::integrator::PathSettings;
-use tessera_worker::tracer::sampler::SamplerKind;
-use tessera_worker::tracer::{Estimator, PixelSums, RenderSettings, Roulette, Scene, render_tile};
+use tessera_render::tracer::integrator::PathSettings;
+use tessera_render::tracer::sampler::SamplerKind;
+use tessera_render::tracer::{Estimator, PixelSums, RenderSettings, Roulette, Scene, render_tile};
 
 /// What varies between the curves of one scene.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -6,8 +6,8 @@
 use super::SceneResult;
 use super::measure::{Config, Point};
 use plotters::prelude::*;
-use tessera_worker::tracer::Estimator;
-use tessera_worker::tracer::sampler::SamplerKind;
+use tessera_render::tracer::Estimator;
+use tessera_render::tracer::sampler::SamplerKind;
 
 const SIZE: (u32, u32) = (860, 600);
 /// relMSE values below this are drawn at it (an exact estimator would otherwise stretch the axis).

@@ -8,9 +8,9 @@
 use super::measure::rel_mse;
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
-use tessera_worker::tracer::integrator::PathSettings;
-use tessera_worker::tracer::sampler::SamplerKind;
-use tessera_worker::tracer::{PixelSums, RenderSettings, Scene, render_tile};
+use tessera_render::tracer::integrator::PathSettings;
+use tessera_render::tracer::sampler::SamplerKind;
+use tessera_render::tracer::{PixelSums, RenderSettings, Scene, render_tile};
 
 pub const CACHE_VERSION: u32 = 1;
 const MAGIC: &[u8; 8] = b"TSACREF1";

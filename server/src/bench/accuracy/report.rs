@@ -4,7 +4,7 @@ use super::measure::{Config, Point};
 use super::stats::{self, Reach};
 use super::{SceneResult, Study};
 use std::fmt::Write;
-use tessera_worker::tracer::Estimator;
+use tessera_render::tracer::Estimator;
 
 pub fn markdown(study: &Study) -> String {
     let o = &study.options;

@@ -5,8 +5,8 @@ use super::measure::{self, Budget, Config, Point};
 use super::reference::{REFERENCE_SEED, Reference};
 use super::stats::log_log_slope;
 use clap::Parser;
-use tessera_worker::tracer::sampler::SamplerKind;
-use tessera_worker::tracer::{Estimator, PixelSums, Scene, render_tile};
+use tessera_render::tracer::sampler::SamplerKind;
+use tessera_render::tracer::{Estimator, PixelSums, Scene, render_tile};
 
 #[derive(Parser)]
 struct Cli {
@@ -15,7 +15,7 @@ struct Cli {
 }
 
 fn cornell() -> Scene {
-    tessera_worker::scene::load_bytes(crate::bundled::get("cornell-box").unwrap(), None).unwrap()
+    tessera_render::scene::load_bytes(crate::bundled::get("cornell-box").unwrap(), None).unwrap()
 }
 
 fn reference(scene: &Scene, size: u32, spp: u32) -> Reference {
