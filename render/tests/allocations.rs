@@ -5,6 +5,7 @@
 //! A counting global allocator sees every allocation in this test binary, which holds this one
 //! test only, so nothing else allocates concurrently. Per-unit and per-row allocations (the
 //! tile's sums, rayon's bookkeeping) are allowed: they do not grow with the sample count.
+use tessera_render::tracer::RenderOptions;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicU64, Ordering};
 use tessera_render::tracer::sampler::SamplerKind;
@@ -35,7 +36,7 @@ static GLOBAL: Counting = Counting;
 const TILE: Tile = Tile { x0: 8, y0: 8, w: 16, h: 16 };
 
 fn by_render_tile(scene: &Arc<Scene>, settings: &RenderSettings, spp: u32) -> TileSums {
-    render_tile(scene, settings, TILE, 0..spp).expect("renders")
+    render_tile(scene, settings, TILE, 0..spp, &RenderOptions::default()).expect("renders")
 }
 
 fn by_row_queue(scene: &Arc<Scene>, settings: &RenderSettings, spp: u32) -> TileSums {

@@ -13,13 +13,11 @@
 //! - [`scratch`]: temporary directories of commands that run their own coordinator, removed
 //!   on drop and before a benchmark exits early.
 //! - [`purge`]: how soon the allocator gives freed memory back, for processes that build scenes.
-//! - [`bench`]: benchmark studies (the accuracy study of issue #10) shared by `tessera-bench` and tests.
 //! - [`dashboard`]: the web dashboard at `/` (static files compiled in).
 //! - [`app`], [`routes`], [`state`], [`status`], [`error`], [`scenes`]: the axum coordinator —
 //!   `app(state) -> Router`, handlers grouped by resource, problem+json errors, the scene store.
 pub mod app;
 pub mod auth;
-pub mod bench;
 pub mod bundled;
 pub mod client;
 pub mod dashboard;

@@ -31,15 +31,14 @@ fn compose_command() -> &'static Result<Vec<String>, String> {
     })
 }
 
-/// The compose tests share two cores: one farm at a time. None (after printing why) when no
-/// engine runs here, and the test should return.
-pub fn engine_or_skip(test: &str) -> Option<MutexGuard<'static, ()>> {
+/// The compose tests share two cores: one farm at a time. Panics, saying why, when no engine
+/// runs here: the tests are ignored unless asked for, and asked for they must really run.
+pub fn engine(test: &str) -> MutexGuard<'static, ()> {
     static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
     if let Err(why) = compose_command() {
-        eprintln!("SKIPPED {test}: {why} (the compose tests need a Docker engine)");
-        return None;
+        panic!("{test}: {why} (the compose tests need a Docker engine and Compose)");
     }
-    Some(ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner()))
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// The static binary deploy/build-image.sh puts in the image.
@@ -98,7 +97,7 @@ impl ComposeFarm {
     }
 
     fn compose_cmd(&self, args: &[&str]) -> Command {
-        let Ok(base) = compose_command() else { unreachable!("checked by engine_or_skip") };
+        let Ok(base) = compose_command() else { unreachable!("checked by engine()") };
         let mut cmd = Command::new(&base[0]);
         cmd.args(&base[1..])
             .arg("-f")

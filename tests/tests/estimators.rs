@@ -1,4 +1,5 @@
 //! All four estimators render the same Cornell box; MIS does it with the least variance.
+use tessera_render::tracer::RenderOptions;
 use crate::harness::{channel, independent_settings, region_mean};
 use tessera_server::bundled;
 use tessera_render::tracer::{Estimator, PixelSums, render_tile};
@@ -8,7 +9,7 @@ const SIZE: u32 = 32;
 fn render(est: Estimator, spp: u32) -> Vec<PixelSums> {
     let scene = bundled::load("cornell-box").unwrap();
     let s = independent_settings((SIZE, SIZE), 11, est);
-    render_tile(&scene, &s, s.full_frame(), 0..spp).unwrap().pixels
+    render_tile(&scene, &s, s.full_frame(), 0..spp, &RenderOptions::default()).unwrap().pixels
 }
 
 /// Mean over pixels of the per-sample variance (variance of the mean × count), channel-averaged.

@@ -1,5 +1,6 @@
 //! Bundled scenes against an independent renderer: Mitsuba 3's reference images
 //! (tests/reference/, made by make_reference.py from the same glTF) must agree with ours.
+use tessera_render::tracer::RenderOptions;
 use crate::harness::{channel, independent_settings, region_mean, repo_root};
 use tessera_server::bundled;
 use tessera_server::output::decode_exr;
@@ -14,7 +15,7 @@ fn matches_mitsuba(scene: &Scene, reference: &str, spp: u32) {
     let (reference, _) = decode_exr(&bytes).expect("decode reference");
     let (w, h) = (reference.width, reference.height);
     let s = independent_settings((w as u32, h as u32), 5, Estimator::Mis);
-    let ours = render_tile(scene, &s, s.full_frame(), 0..spp).unwrap().pixels;
+    let ours = render_tile(scene, &s, s.full_frame(), 0..spp, &RenderOptions::default()).unwrap().pixels;
     for c in 0..3 {
         let ref_px: Vec<(f64, f64)> =
             reference.rgb.iter().zip(&reference.variance).map(|(m, v)| (m[c] as f64, v[c] as f64)).collect();

@@ -13,6 +13,15 @@
 use crate::tracer::ray::Ray;
 use glam::{Mat4, Vec2, Vec3};
 
+/// A camera a render asked for that the scene does not have.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum CameraError {
+    #[error("no camera named {name:?} (the scene has {names:?})")]
+    Unknown { name: String, names: Vec<String> },
+    #[error("the scene has no perspective camera")]
+    Missing,
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
     pub name: String,

@@ -24,6 +24,7 @@ use crate::tracer::bsdf::{Bsdf, BsdfSample};
 use crate::tracer::effects::{AllEffects, EffectSet};
 use crate::tracer::light::{LightSampler, LightSet, Target};
 use crate::tracer::ray::{Ray, SHADOW_EPSILON};
+#[cfg(feature = "bench")]
 use crate::tracer::ray_log::RayLog;
 pub use crate::tracer::roulette::{DEFAULT_ROULETTE_DEPTH, Roulette};
 use crate::tracer::sampler::Sampler;
@@ -95,6 +96,7 @@ pub struct Integrator<'a> {
     pub(crate) lights: LightSet<'a>,
     settings: PathSettings,
     /// Where every traced ray is recorded, when a benchmark asks (see [`RayLog`]).
+    #[cfg(feature = "bench")]
     pub(crate) ray_log: Option<&'a RayLog>,
 }
 
@@ -115,10 +117,17 @@ impl<'a> Integrator<'a> {
     pub fn new(scene: &'a Scene, background: Vec3, settings: PathSettings) -> Integrator<'a> {
         let lights = LightSet::with_tree(&scene.lights, scene.light_tree_for(settings.light_sampler), background, scene.bounds_radius)
             .with_textures(&scene.textures);
-        Integrator { scene, lights, settings, ray_log: None }
+        Integrator {
+            scene,
+            lights,
+            settings,
+            #[cfg(feature = "bench")]
+            ray_log: None,
+        }
     }
 
     /// This integrator recording every ray it traces in `log`.
+    #[cfg(feature = "bench")]
     pub fn with_ray_log(self, log: &'a RayLog) -> Integrator<'a> {
         Integrator { ray_log: Some(log), ..self }
     }

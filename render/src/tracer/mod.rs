@@ -12,6 +12,7 @@ pub mod light;
 pub mod material;
 pub mod normal_map;
 pub mod ray;
+#[cfg(feature = "bench")]
 pub mod ray_log;
 pub mod render;
 pub mod roulette;
@@ -31,7 +32,7 @@ mod numerics;
 pub use film::{PixelSums, Tile, TileSums};
 pub use integrator::{Estimator, PathSettings, Roulette};
 pub use effects::{Effects, KernelBits};
-pub use render::{RenderSettings, render_tile, render_tile_cancellable, render_tile_kernel, render_tile_logged};
+pub use render::{RenderError, RenderOptions, RenderSettings, render_tile};
 pub use rows::RowQueue;
 pub use scene::Scene;
 pub use light::LightSampler;

@@ -2,8 +2,9 @@
 //! tracer asks for (`tessera-bench bvh` times them through our BVH and through obvhs's own
 //! traversal, against the render itself).
 //!
-//! Off unless a caller hands one to [`crate::tracer::render::render_tile_logged`]; the cost to a
-//! render without it is one test of an `Option` per ray. Rays are kept in the order one thread
+//! Compiled only with the crate's `bench` feature (benchmark builds), and off unless a caller
+//! hands one to [`crate::tracer::render_tile`] in its options: the product's render loop has no
+//! check for it. Rays are kept in the order one thread
 //! traces them; with several threads the order interleaves, the set does not change.
 use crate::tracer::ray::Ray;
 use std::sync::Mutex;
@@ -49,7 +50,7 @@ impl RayLog {
 mod tests {
     use super::*;
     use crate::scene::load_path;
-    use crate::tracer::render::{render_tile, render_tile_logged};
+    use crate::tracer::{RenderOptions, render_tile};
     use crate::tracer::sampler::SamplerKind;
     use crate::tracer::{Estimator, Tile};
     use std::path::Path;
@@ -61,8 +62,8 @@ mod tests {
         settings.sampler = SamplerKind::Sobol;
         let tile = Tile { x0: 4, y0: 8, w: 16, h: 12 };
         let log = RayLog::new();
-        let logged = render_tile_logged(&scene, &settings, tile, 0..4, &log).unwrap();
-        assert_eq!(logged, render_tile(&scene, &settings, tile, 0..4).unwrap(), "logging changes nothing");
+        let logged = render_tile(&scene, &settings, tile, 0..4, &RenderOptions { ray_log: Some(&log), ..RenderOptions::default() }).unwrap();
+        assert_eq!(logged, render_tile(&scene, &settings, tile, 0..4, &RenderOptions::default()).unwrap(), "logging changes nothing");
         let rays = log.take();
         assert_eq!(rays.len() as u64, logged.rays);
         let closest = rays.iter().filter(|r| r.query == RayQuery::Closest).count();

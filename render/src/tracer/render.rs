@@ -7,10 +7,11 @@
 //! The scene chooses the kernel (its effects) and caps the path depth (its needed depth: 0 when
 //! nothing can scatter or nothing emits) unless the caller forces a kernel.
 use crate::dispatch_kernel;
-use crate::tracer::camera::RasterCamera;
+use crate::tracer::camera::{CameraError, RasterCamera};
 use crate::tracer::effects::{EffectSet, KernelBits};
 use crate::tracer::film::{PixelSums, Tile, TileSums};
 use crate::tracer::integrator::{Integrator, PathSettings};
+#[cfg(feature = "bench")]
 use crate::tracer::ray_log::RayLog;
 use crate::tracer::sampler::{PixelSeeds, Sampler, SamplerKind};
 use crate::tracer::scene::Scene;
@@ -38,47 +39,45 @@ impl RenderSettings {
     }
 }
 
+/// What a caller may ask of one unit's render beyond its settings. The default renders the
+/// kernel the scene's effects select, to the end, logging nothing.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RenderOptions<'a> {
+    /// Gives up with [`RenderError::Canceled`] once set; checked per row.
+    pub cancel: Option<&'a AtomicBool>,
+    /// A kernel chosen by the caller (None: the one the scene's effects select, and the path
+    /// depth the scene needs, [`Scene::needed_depth`]). A kernel with more effects than needed
+    /// gives the same image in expectation, only slower (the "forced on" comparison of the
+    /// benchmarks); a forced kernel also runs the job's full depth.
+    pub kernel: Option<KernelBits>,
+    /// Where every ray traced is recorded, so benchmarks can trace the same rays alone.
+    #[cfg(feature = "bench")]
+    pub ray_log: Option<&'a RayLog>,
+}
+
+/// Why a unit was not rendered.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum RenderError {
+    #[error("tile {tile:?} exceeds the {width}×{height} image")]
+    TileOutsideImage { tile: Tile, width: u32, height: u32 },
+    #[error(transparent)]
+    Camera(#[from] CameraError),
+    #[error("the render was canceled")]
+    Canceled,
+}
+
 /// Renders sample indices `samples` of every pixel in `tile`.
-pub fn render_tile(scene: &Scene, settings: &RenderSettings, tile: Tile, samples: Range<u32>) -> Result<TileSums, String> {
-    let never = AtomicBool::new(false);
-    Ok(render_tile_cancellable(scene, settings, tile, samples, &never)?.expect("never canceled"))
-}
-
-/// As [`render_tile`], but gives up (returning `Ok(None)`) once `cancel` is set; checked per row.
-pub fn render_tile_cancellable(
-    scene: &Scene,
-    settings: &RenderSettings,
-    tile: Tile,
-    samples: Range<u32>,
-    cancel: &AtomicBool,
-) -> Result<Option<TileSums>, String> {
-    render_tile_kernel(scene, settings, tile, samples, cancel, None)
-}
-
-/// As [`render_tile_cancellable`] with the kernel chosen by the caller (None: the one the
-/// scene's effects select, and the path depth the scene needs, [`Scene::needed_depth`]).
-/// A kernel with more effects than needed gives the same image in expectation, only slower
-/// (the "forced on" comparison, benchmarks); a forced kernel also runs the job's full depth.
-pub fn render_tile_kernel(
-    scene: &Scene,
-    settings: &RenderSettings,
-    tile: Tile,
-    samples: Range<u32>,
-    cancel: &AtomicBool,
-    kernel: Option<KernelBits>,
-) -> Result<Option<TileSums>, String> {
-    let plan = UnitPlan::new(scene, settings, tile, kernel)?;
+pub fn render_tile(scene: &Scene, settings: &RenderSettings, tile: Tile, samples: Range<u32>, options: &RenderOptions) -> Result<TileSums, RenderError> {
+    let plan = UnitPlan::new(scene, settings, tile, options.kernel)?;
     let integrator = Integrator::new(scene, settings.background, plan.path);
-    Ok(dispatch_kernel!(plan.kernel, render_rows(&integrator, &plan.camera, settings, tile, samples, cancel)))
-}
-
-/// As [`render_tile`], recording every ray traced in `log` (for benchmarks: the same rays can
-/// then be traced alone, see [`RayLog`]).
-pub fn render_tile_logged(scene: &Scene, settings: &RenderSettings, tile: Tile, samples: Range<u32>, log: &RayLog) -> Result<TileSums, String> {
-    let plan = UnitPlan::new(scene, settings, tile, None)?;
-    let integrator = Integrator::new(scene, settings.background, plan.path).with_ray_log(log);
+    #[cfg(feature = "bench")]
+    let integrator = match options.ray_log {
+        Some(log) => integrator.with_ray_log(log),
+        None => integrator,
+    };
     let never = AtomicBool::new(false);
-    Ok(dispatch_kernel!(plan.kernel, render_rows(&integrator, &plan.camera, settings, tile, samples, &never)).expect("never canceled"))
+    let cancel = options.cancel.unwrap_or(&never);
+    dispatch_kernel!(plan.kernel, render_rows(&integrator, &plan.camera, settings, tile, samples, cancel)).ok_or(RenderError::Canceled)
 }
 
 /// What a unit's rows share, worked out once: the camera bound to the image, the path
@@ -92,9 +91,9 @@ pub(crate) struct UnitPlan {
 
 impl UnitPlan {
     /// Checks the tile against the image and resolves the camera (None: the scene's first).
-    pub(crate) fn new(scene: &Scene, settings: &RenderSettings, tile: Tile, kernel: Option<KernelBits>) -> Result<UnitPlan, String> {
+    pub(crate) fn new(scene: &Scene, settings: &RenderSettings, tile: Tile, kernel: Option<KernelBits>) -> Result<UnitPlan, RenderError> {
         if tile.x0.checked_add(tile.w).is_none_or(|x| x > settings.width) || tile.y0.checked_add(tile.h).is_none_or(|y| y > settings.height) {
-            return Err(format!("tile {tile:?} exceeds the {}×{} image", settings.width, settings.height));
+            return Err(RenderError::TileOutsideImage { tile, width: settings.width, height: settings.height });
         }
         let camera = scene.camera(settings.camera.as_deref())?;
         let mut path = settings.path;

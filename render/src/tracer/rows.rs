@@ -15,7 +15,7 @@
 use crate::dispatch_kernel;
 use crate::tracer::film::{PixelSums, Tile, TileSums};
 use crate::tracer::integrator::Integrator;
-use crate::tracer::render::{RenderSettings, RowStats, UnitPlan, render_row};
+use crate::tracer::render::{RenderError, RenderSettings, RowStats, UnitPlan, render_row};
 use crate::tracer::scene::Scene;
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -39,7 +39,7 @@ pub struct RowQueue {
 impl RowQueue {
     /// A unit ready to be worked on; errors as [`render_tile`](super::render_tile) does for a
     /// tile outside the image or an unknown camera.
-    pub fn new(scene: Arc<Scene>, settings: RenderSettings, tile: Tile, samples: Range<u32>) -> Result<RowQueue, String> {
+    pub fn new(scene: Arc<Scene>, settings: RenderSettings, tile: Tile, samples: Range<u32>) -> Result<RowQueue, RenderError> {
         let plan = UnitPlan::new(&scene, &settings, tile, None)?;
         Ok(RowQueue {
             scene,

@@ -3,7 +3,7 @@
 //! Built once per scene (by [`crate::scene`] from glTF, or directly in tests) and then shared
 //! read-only by every thread and every unit that renders it.
 use crate::tracer::accel::{Accel, BvhKind, Faces, PARALLEL_GRAIN};
-use crate::tracer::camera::Camera;
+use crate::tracer::camera::{Camera, CameraError};
 use crate::tracer::effects::Effects;
 use crate::tracer::light::{EmissiveTexture, Light, LightSampler, LightTree};
 use crate::tracer::material::Material;
@@ -136,13 +136,13 @@ impl Scene {
         if self.effects.contains(Effects::NO_SCATTERING) || dark { 0 } else { u32::MAX }
     }
 
-    pub fn camera(&self, name: Option<&str>) -> Result<&Camera, String> {
+    pub fn camera(&self, name: Option<&str>) -> Result<&Camera, CameraError> {
         match name {
-            Some(n) => self.cameras.iter().find(|c| c.name == n).ok_or_else(|| {
-                let names: Vec<&str> = self.cameras.iter().map(|c| c.name.as_str()).collect();
-                format!("no camera named {n:?} (the scene has {names:?})")
+            Some(n) => self.cameras.iter().find(|c| c.name == n).ok_or_else(|| CameraError::Unknown {
+                name: n.to_string(),
+                names: self.cameras.iter().map(|c| c.name.clone()).collect(),
             }),
-            None => self.cameras.first().ok_or_else(|| "the scene has no perspective camera".to_string()),
+            None => self.cameras.first().ok_or(CameraError::Missing),
         }
     }
 }

@@ -12,6 +12,7 @@ use crate::tracer::integrator::Integrator;
 use crate::tracer::material::{Material, NormalTexture};
 use crate::tracer::normal_map;
 use crate::tracer::ray::{ErrPoint, Ray};
+#[cfg(feature = "bench")]
 use crate::tracer::ray_log::RayQuery;
 use crate::tracer::sampling::Frame;
 use glam::{Vec2, Vec3};
@@ -52,6 +53,7 @@ impl Integrator<'_> {
     // lent to it (+2.5 % instructions, +4 % time on the Cornell box; docs/performance.md, session 32).
     #[inline(always)]
     pub(crate) fn surface<E: EffectSet>(&self, ray: &Ray, u_glass: f32) -> Option<Surface> {
+        #[cfg(feature = "bench")]
         if let Some(log) = self.ray_log {
             log.push(ray, f32::INFINITY, RayQuery::Closest);
         }
@@ -131,6 +133,7 @@ impl Integrator<'_> {
     /// Shadow-ray test as kernel `E` sees it (alpha-cut triangles let light through).
     #[inline]
     pub(crate) fn occluded<E: EffectSet>(&self, ray: &Ray, t_max: f32) -> bool {
+        #[cfg(feature = "bench")]
         if let Some(log) = self.ray_log {
             log.push(ray, t_max, RayQuery::Occluded);
         }

@@ -1,6 +1,5 @@
 //! Command-line interface: one file per subcommand.
 mod args;
-mod bench;
 mod healthcheck;
 mod job;
 mod render;
@@ -13,7 +12,7 @@ use std::process::ExitCode;
 
 #[derive(Parser)]
 #[command(name = "tessera", version, about = "Tessera: a distributed render farm for physically based images",
-    long_about = "Tessera path-traces glTF 2.0 scenes. `render` renders on this machine (a coordinator and a worker in one process); `serve` runs a coordinator; `work` runs a worker that pulls units from a coordinator; `submit` sends a job to a coordinator; `job` reads, pauses, resumes or cancels one; `healthcheck` probes a coordinator (for containers); `bench accuracy` measures what accuracy costs in time.\n\nLogs go to stderr; set RUST_LOG (e.g. RUST_LOG=debug) to change their level.")]
+    long_about = "Tessera path-traces glTF 2.0 scenes. `render` renders on this machine (a coordinator and a worker in one process); `serve` runs a coordinator; `work` runs a worker that pulls units from a coordinator; `submit` sends a job to a coordinator; `job` reads, pauses, resumes or cancels one; `healthcheck` probes a coordinator (for containers). Benchmarks are a separate command, `tessera-bench`.\n\nLogs go to stderr; set RUST_LOG (e.g. RUST_LOG=debug) to change their level.")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -34,8 +33,6 @@ enum Command {
     Job(job::JobCmdArgs),
     /// Check that a coordinator answers on /healthz (exit code 0) or not (1); for container probes.
     Healthcheck(healthcheck::HealthcheckArgs),
-    /// Benchmark studies that write reports (`bench accuracy`: relMSE vs time, issue #10).
-    Bench(bench::BenchArgs),
 }
 
 /// `--version`: the release, and the renderer id workers register with (workers of different
@@ -67,7 +64,7 @@ fn say(line: std::fmt::Arguments) -> std::io::Result<()> {
 
 pub fn main() -> ExitCode {
     let cli = parse();
-    let default_level = if matches!(cli.command, Command::Render(_) | Command::Submit(_) | Command::Job(_) | Command::Healthcheck(_) | Command::Bench(_)) { "warn" } else { "info" };
+    let default_level = if matches!(cli.command, Command::Render(_) | Command::Submit(_) | Command::Job(_) | Command::Healthcheck(_)) { "warn" } else { "info" };
     tracing_subscriber::fmt()
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| default_level.into()))
         .with_writer(std::io::stderr)
@@ -79,7 +76,6 @@ pub fn main() -> ExitCode {
         Command::Submit(a) => submit::run(a),
         Command::Job(a) => job::run(a),
         Command::Healthcheck(a) => healthcheck::run(a),
-        Command::Bench(a) => bench::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,5 +1,6 @@
 //! The worker loop against a mock coordinator (axum on 127.0.0.1:0) that serves the bundled
 //! furnace scene, hands out a scripted sequence of answers and records what the worker sends.
+use tessera_render::tracer::RenderOptions;
 use super::*;
 use tessera_render::tracer::render_tile;
 use tessera_proto::{PartialSums, RenderParams, TileRect};
@@ -104,7 +105,7 @@ fn assert_bit_exact(body: &[u8], step_params: &RenderParams) {
     let got = PartialSums::decode(body).expect("the upload decodes");
     let scene = tessera_render::scene::load_path(&furnace_path()).unwrap();
     let settings = render_settings(step_params).unwrap();
-    let expected = render_tile(&scene, &settings, convert::tile(got.tile), got.samples[0]..got.samples[1]).unwrap();
+    let expected = render_tile(&scene, &settings, convert::tile(got.tile), got.samples[0]..got.samples[1], &RenderOptions::default()).unwrap();
     assert_eq!(body, to_wire(&expected, got.samples).encode().as_slice(), "upload for {:?} {:?}", got.tile, got.samples);
 }
 
@@ -394,7 +395,7 @@ async fn frames_of_an_animation_refit_and_report_how_their_scene_was_prepared() 
         let scene = seq.scene_at(Some(0), f64::from(n) / 24.0).unwrap();
         let mut settings = render_settings(&params(16, 8)).unwrap();
         settings.seed = tessera_render::tracer::sampler::frame_seed(settings.seed, n);
-        let expected = render_tile(&scene, &settings, convert::tile(got.tile), 0..2).unwrap();
+        let expected = render_tile(&scene, &settings, convert::tile(got.tile), 0..2, &RenderOptions::default()).unwrap();
         assert_eq!(body, &to_wire(&expected, got.samples).encode(), "{id}");
     }
 }

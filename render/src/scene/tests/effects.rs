@@ -1,11 +1,11 @@
 //! Every bundled scene reports the effects it calls for, and its gated render agrees with a
 //! render by the kernel with every effect compiled in, per pixel, within error bars.
+use crate::tracer::RenderOptions;
 use super::super::*;
 use crate::tracer::effects::{Effects, KernelBits};
 use crate::tracer::integrator::tests::settings;
-use crate::tracer::{Estimator, PixelSums, Roulette, render_tile_kernel};
+use crate::tracer::{Estimator, PixelSums, Roulette, render_tile};
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
 
 fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../scenes/{name}.gltf"))
@@ -151,11 +151,10 @@ fn mean_var(p: &PixelSums, c: usize) -> (f64, f64) {
 
 #[test]
 fn gated_and_all_effects_renders_agree_within_error_bars() {
-    let never = AtomicBool::new(false);
     for name in bundled() {
         let scene = load_path(&scene_path(&name)).unwrap();
         let s = settings(Estimator::Mis, Roulette::default(), 24, glam::Vec3::ZERO);
-        let render = |k| render_tile_kernel(&scene, &s, s.full_frame(), 0..64, &never, k).unwrap().unwrap();
+        let render = |k| render_tile(&scene, &s, s.full_frame(), 0..64, &RenderOptions { kernel: k, ..RenderOptions::default() }).unwrap();
         let (gated, all) = (render(None), render(Some(KernelBits::ALL)));
         assert_eq!((gated.dropped, all.dropped), (0, 0), "{name}: non-finite samples");
         let (mut outliers, mut n) = (0, 0);

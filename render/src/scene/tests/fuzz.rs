@@ -3,7 +3,7 @@
 //! as 4294967295 or -1 so counts, offsets and indices go out of range). Every mutant must load
 //! or give a clean error — no panic, and no panic swallowed by the loader's `catch_unwind`
 //! either (that message means a bounds check is missing). Bounded: a fixed number of cases
-//! from a fixed seed, a few seconds in total. Crashers found are kept in `worker/tests/corpus/`
+//! from a fixed seed, a few seconds in total. Crashers found are kept in `render/tests/corpus/`
 //! and replayed by `the_crash_corpus_loads_or_fails_cleanly`.
 use super::super::tests::triangle_gltf;
 use super::super::*;
@@ -147,7 +147,7 @@ fn the_crash_corpus_loads_or_fails_cleanly() {
 }
 
 fn replay(dir: &Path) {
-    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    let entries = std::fs::read_dir(dir).unwrap_or_else(|e| panic!("the crash corpus {}: {e}", dir.display()));
     let mut n = 0;
     for e in entries.flatten().filter(|e| e.path().extension().is_some_and(|x| x == "bin")) {
         let bytes = std::fs::read(e.path()).expect("corpus file");
@@ -156,5 +156,6 @@ fn replay(dir: &Path) {
         }
         n += 1;
     }
+    assert!(n > 0, "{} holds no crasher (*.bin) to replay", dir.display());
     eprintln!("{n} corpus files replayed");
 }

@@ -1,5 +1,6 @@
 //! Frames of the bundled animated Cornell box: the animation is found, frames differ, and a
 //! frame whose BVH was refitted from another frame renders the same bits as one built anew.
+use crate::tracer::RenderOptions;
 use super::super::*;
 use crate::tracer::integrator::PathSettings;
 use crate::tracer::sampler::{SamplerKind, frame_seed};
@@ -22,7 +23,7 @@ fn render(scene: &Scene, frame: u32) -> TileSums {
         background: glam::Vec3::ZERO,
         camera: None,
     };
-    render_tile(scene, &settings, Tile { x0: 0, y0: 0, w: 48, h: 48 }, 0..4).unwrap()
+    render_tile(scene, &settings, Tile { x0: 0, y0: 0, w: 48, h: 48 }, 0..4, &RenderOptions::default()).unwrap()
 }
 
 /// Bit patterns of every sum, so NaN-free float sums compare exactly.
@@ -103,30 +104,4 @@ fn a_frame_that_would_wear_the_tree_out_is_built() {
     assert_eq!(built.accel.wear(), Some(1.0));
     let (_, how) = seq.parsed_at(Some(0), 0.0).unwrap().build_from(&frame0);
     assert_eq!(how, Preparation::Refit);
-}
-
-/// Benchmark, not a check: frame scene build vs refit for the animated Cornell box. Run with
-/// `cargo test -p tessera-worker --lib cornell_frame_build_vs_refit -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn cornell_frame_build_vs_refit() {
-    let seq = animated();
-    let ms = |t0: std::time::Instant| t0.elapsed().as_secs_f64() * 1e3;
-    let (mut build, mut refit, mut walk) = (0.0, 0.0, 0.0);
-    let mut previous = seq.scene_at(Some(0), 0.0).unwrap();
-    for frame in 1..8 {
-        let t = frame as f64 / FPS;
-        let t0 = std::time::Instant::now();
-        drop(seq.parsed_at(Some(0), t).unwrap());
-        walk += ms(t0);
-        let t0 = std::time::Instant::now();
-        drop(seq.scene_at(Some(0), t).unwrap());
-        build += ms(t0);
-        let t0 = std::time::Instant::now();
-        let (next, how) = seq.scene_after(&previous, Some(0), t).unwrap();
-        refit += ms(t0);
-        assert_eq!(how, Preparation::Refit);
-        previous = next;
-    }
-    println!("cornell-animated frames 1–7, mean per frame: node walk {:.3} ms; scene with BVH build {:.3} ms, with refit {:.3} ms", walk / 7.0, build / 7.0, refit / 7.0);
 }

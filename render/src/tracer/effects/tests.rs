@@ -1,5 +1,6 @@
 //! Each effect changes the image as physics says. Tolerances are 4σ of the pooled estimate
 //! (independent sampler, σ measured from the samples).
+use crate::tracer::RenderOptions;
 use crate::tracer::effects::{Effects, KernelBits};
 use crate::tracer::integrator::tests::{assert_within_4_sigma, camera_at, pooled, quad, render, settings};
 use crate::tracer::integrator::{Estimator, Roulette};
@@ -184,9 +185,8 @@ fn alpha_masks_cut_out_geometry_by_factor_and_by_texture() {
     let column = |x: usize| (0..8).map(|y| px[y * 8 + x].mean()[0]).sum::<f64>() / 8.0;
     assert!((column(0) - 1.0).abs() < 1e-6 && column(7) == 0.0, "{} {}", column(0), column(7));
     // The matte kernel (no alpha code) would not see through: gating matters.
-    let never = std::sync::atomic::AtomicBool::new(false);
-    let matte = crate::tracer::render_tile_kernel(&cut, &s, s.full_frame(), 0..4, &never, Some(KernelBits::MATTE));
-    assert_eq!(pooled(&matte.unwrap().unwrap().pixels).0, 0.0);
+    let matte = crate::tracer::render_tile(&cut, &s, s.full_frame(), 0..4, &RenderOptions { kernel: Some(KernelBits::MATTE), ..RenderOptions::default() });
+    assert_eq!(pooled(&matte.unwrap().pixels).0, 0.0);
 }
 
 #[test]

@@ -1,6 +1,7 @@
 //! Analytic checks of every estimator. Tolerances are 4σ of the estimate, with σ measured from
 //! the samples themselves (independent sampler, so the samples are i.i.d. and σ²/n is the
 //! variance of the mean).
+use crate::tracer::RenderOptions;
 use super::*;
 use crate::tracer::camera::Camera;
 use crate::tracer::film::{PixelSums, Tile};
@@ -58,7 +59,7 @@ fn settings_choosing(light_sampler: LightSampler, estimator: Estimator, size: u3
 }
 
 pub(crate) fn render(scene: &Scene, s: &RenderSettings, spp: u32) -> Vec<PixelSums> {
-    render_tile(scene, s, s.full_frame(), 0..spp).expect("render").pixels
+    render_tile(scene, s, s.full_frame(), 0..spp, &RenderOptions::default()).expect("render").pixels
 }
 
 pub(crate) fn assert_within_4_sigma(what: &str, got: (f64, f64), expected: f64) {
@@ -170,7 +171,7 @@ fn a_unit_is_bit_identical_across_thread_counts_and_repeats() {
     let s = RenderSettings { sampler: SamplerKind::Sobol, ..settings(Estimator::Mis, Roulette::default(), 16, Vec3::ZERO) };
     let run = |threads| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| render_tile(&scene, &s, Tile { x0: 3, y0: 2, w: 9, h: 7 }, 5..21).unwrap())
+        pool.install(|| render_tile(&scene, &s, Tile { x0: 3, y0: 2, w: 9, h: 7 }, 5..21, &RenderOptions::default()).unwrap())
     };
     let one = run(1);
     assert_eq!(one, run(2));
@@ -181,12 +182,12 @@ fn a_unit_is_bit_identical_across_thread_counts_and_repeats() {
 fn merged_sample_ranges_equal_one_range_whatever_the_tile_split() {
     let scene = furnace(0.6, 0.2);
     let s = settings(Estimator::Mis, Roulette::default(), 6, Vec3::ZERO);
-    let whole = render_tile(&scene, &s, s.full_frame(), 0..128).unwrap();
+    let whole = render_tile(&scene, &s, s.full_frame(), 0..128, &RenderOptions::default()).unwrap();
     for columns in [[(0, 6), (6, 0)], [(0, 2), (2, 4)]] {
         let mut frame = vec![PixelSums::default(); 36];
         for (x0, w) in columns.into_iter().filter(|c| c.1 > 0) {
             for range in [0..64, 64..128] {
-                render_tile(&scene, &s, Tile { x0, y0: 0, w, h: 6 }, range).unwrap().add_into_frame(&mut frame, 6);
+                render_tile(&scene, &s, Tile { x0, y0: 0, w, h: 6 }, range, &RenderOptions::default()).unwrap().add_into_frame(&mut frame, 6);
             }
         }
         for (a, b) in whole.pixels.iter().zip(&frame) {

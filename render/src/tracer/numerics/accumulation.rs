@@ -1,4 +1,5 @@
 //! Cases 11–15: boundary random numbers, accumulation, containment, roulette, merging.
+use crate::tracer::RenderOptions;
 use crate::tracer::bsdf::{Pbr, Phong};
 use crate::tracer::chi2::Rng;
 use crate::tracer::film::{PixelSums, TileSums};
@@ -108,7 +109,7 @@ fn non_finite_samples_are_dropped_counted_and_contained() {
         let scene = Scene::new(mesh, vec![base.materials[0].clone(), bad], vec![], base.cameras.clone(), vec![]);
         let s = settings(Estimator::Mis, Roulette::default(), 16, Vec3::ZERO);
         let spp = 16;
-        let sums = render_tile(&scene, &s, s.full_frame(), 0..spp).unwrap();
+        let sums = render_tile(&scene, &s, s.full_frame(), 0..spp, &RenderOptions::default()).unwrap();
         let counted: u64 = sums.pixels.iter().map(|p| p.count).sum();
         assert!(sums.dropped > 0, "{poison}: the poisoned triangle must be hit");
         assert!(counted > sums.dropped, "{poison}: most samples survive ({} dropped)", sums.dropped);
@@ -128,7 +129,7 @@ fn roulette_on_and_off_agree_at_albedo_095_and_weights_stay_bounded() {
     let scene = furnace(rho, le);
     let run = |rr| {
         let s = settings(Estimator::Mis, rr, 8, Vec3::ZERO);
-        let sums = render_tile(&scene, &s, s.full_frame(), 0..256).unwrap();
+        let sums = render_tile(&scene, &s, s.full_frame(), 0..256, &RenderOptions::default()).unwrap();
         (pooled(&sums.pixels), sums.max_weight)
     };
     let (off, w_off) = run(Roulette::Off);
@@ -150,7 +151,7 @@ fn roulette_on_and_off_agree_at_albedo_095_and_weights_stay_bounded() {
 fn shuffled_batches_merge_to_one_pass_with_disjoint_samples() {
     let scene = furnace(0.6, 0.2);
     let s = settings(Estimator::Mis, Roulette::default(), 6, Vec3::ZERO);
-    let whole = render_tile(&scene, &s, s.full_frame(), 0..96).unwrap();
+    let whole = render_tile(&scene, &s, s.full_frame(), 0..96, &RenderOptions::default()).unwrap();
     let mut order: Vec<u32> = (0..12).collect();
     let mut rng = Rng::new(115);
     for i in (1..order.len()).rev() {
@@ -160,7 +161,7 @@ fn shuffled_batches_merge_to_one_pass_with_disjoint_samples() {
     let mut merged = TileSums::new(s.full_frame());
     let mut batch_sums = Vec::new();
     for &b in &order {
-        let part = render_tile(&scene, &s, s.full_frame(), b * 8..(b + 1) * 8).unwrap();
+        let part = render_tile(&scene, &s, s.full_frame(), b * 8..(b + 1) * 8, &RenderOptions::default()).unwrap();
         merged.merge(&part).unwrap();
         batch_sums.push(part.pixels[0].sum);
     }

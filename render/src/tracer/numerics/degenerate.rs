@@ -1,4 +1,5 @@
 //! Case 9: zero-area and needle triangles, emissive ones included.
+use crate::tracer::RenderOptions;
 use crate::tracer::accel::triangle_normal;
 use crate::tracer::integrator::tests::{camera_at, quad, settings};
 use crate::tracer::integrator::{Estimator, Roulette};
@@ -74,8 +75,8 @@ fn degenerate_triangles_are_neither_lights_nor_hit() {
 #[test]
 fn degenerate_triangles_leave_the_image_unchanged() {
     let s = settings(Estimator::Mis, Roulette::default(), 16, Vec3::splat(0.1));
-    let clean = render_tile(&scene(&[]), &s, s.full_frame(), 0..32).unwrap();
-    let dirty = render_tile(&scene(&degenerates()), &s, s.full_frame(), 0..32).unwrap();
+    let clean = render_tile(&scene(&[]), &s, s.full_frame(), 0..32, &RenderOptions::default()).unwrap();
+    let dirty = render_tile(&scene(&degenerates()), &s, s.full_frame(), 0..32, &RenderOptions::default()).unwrap();
     assert_eq!(dirty.dropped, 0);
     assert!(dirty.pixels.iter().all(|p| p.sum.iter().all(|v| v.is_finite())));
     assert!(clean.pixels.iter().any(|p| p.sum[0] > 0.0));

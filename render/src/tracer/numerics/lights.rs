@@ -1,5 +1,6 @@
 //! Cases 5 and 6: tiny, distant and grazing lights. (Case 10, MIS bounds, needs the
 //! integrator's internals: `integrator_mis_tests.rs`.)
+use crate::tracer::RenderOptions;
 use crate::tracer::chi2::Rng;
 use crate::tracer::integrator::tests::{camera_at, polygon_irradiance, pooled, quad, render, settings};
 use crate::tracer::integrator::{Estimator, Roulette};
@@ -61,7 +62,7 @@ fn speck_of_light_1e4_away_gives_closed_form_irradiance() {
     let expected = 0.8 / std::f64::consts::PI * 3.0 * area / 1e8;
     for est in [Estimator::Mis, Estimator::Light] {
         let s = settings(est, Roulette::default(), 2, Vec3::ZERO);
-        let sums = crate::tracer::render::render_tile(&scene, &s, s.full_frame(), 0..64).unwrap();
+        let sums = crate::tracer::render::render_tile(&scene, &s, s.full_frame(), 0..64, &RenderOptions::default()).unwrap();
         assert_eq!(sums.dropped, 0, "{est:?}: non-finite samples");
         let (mean, _) = pooled(&sums.pixels);
         assert!((mean / expected - 1.0).abs() < 5e-3, "{est:?}: {mean:e} vs {expected:e}");

@@ -1,4 +1,5 @@
 //! A unit worked through its row queue, by any number of threads, equals `render_tile`'s bits.
+use crate::tracer::RenderOptions;
 use super::*;
 use crate::scene::load_path;
 use crate::tracer::render_tile;
@@ -24,7 +25,7 @@ fn one_thread_finishes_the_unit_and_its_sums_are_render_tiles() {
     let q = queue(&scene, &settings);
     assert!(q.work(), "the only worker finishes the last row");
     assert!(!q.work(), "nothing left to finish");
-    let expected = render_tile(&scene, &settings, TILE, 3..7).unwrap();
+    let expected = render_tile(&scene, &settings, TILE, 3..7, &RenderOptions::default()).unwrap();
     assert!(expected.rays > 0);
     assert_eq!(q.take(), Some(expected));
 }
@@ -32,7 +33,7 @@ fn one_thread_finishes_the_unit_and_its_sums_are_render_tiles() {
 #[test]
 fn many_threads_give_the_same_bits_and_exactly_one_finishes() {
     let (scene, settings) = cornell();
-    let expected = render_tile(&scene, &settings, TILE, 3..7).unwrap();
+    let expected = render_tile(&scene, &settings, TILE, 3..7, &RenderOptions::default()).unwrap();
     for threads in [2, 3, 7] {
         let q = queue(&scene, &settings);
         let finishers: usize = std::thread::scope(|s| {
@@ -70,5 +71,5 @@ fn a_tile_outside_the_image_is_refused() {
     let (scene, settings) = cornell();
     let tile = Tile { x0: 30, y0: 0, w: 20, h: 4 };
     let err = RowQueue::new(scene, settings, tile, 0..1).err().expect("refused");
-    assert!(err.contains("exceeds the 40×40 image"), "{err}");
+    assert!(err.to_string().contains("exceeds the 40×40 image"), "{err}");
 }

@@ -1,16 +1,16 @@
 //! Textures, normal maps, textured emitters and the scene-driven depth limit change the image
 //! as they should. Delta-lit and directly seen emitters give every sample the same value, so
 //! those tolerances are float rounding; the rest are 4σ of the difference of two estimates.
+use crate::tracer::RenderOptions;
 use crate::tracer::effects::{Effects, KernelBits};
 use crate::tracer::integrator::tests::{camera_at, furnace, pooled, quad, render, settings};
 use crate::tracer::integrator::{Estimator, Roulette};
 use crate::tracer::light::Light;
 use crate::tracer::material::{Material, NormalTexture, TextureRef};
-use crate::tracer::render::render_tile_kernel;
+use crate::tracer::render::render_tile;
 use crate::tracer::scene::{Mesh, Scene};
 use crate::tracer::texture::{Texture, UvTransform, Wrap};
 use glam::{Vec2, Vec3, Vec4};
-use std::sync::atomic::AtomicBool;
 
 fn texture(width: u32, texels: Vec<Vec4>, wrap: Wrap) -> Texture {
     Texture { width, height: texels.len() as u32 / width, texels, wrap_s: wrap, wrap_t: wrap }
@@ -180,11 +180,10 @@ fn scenes_where_nothing_scatters_or_nothing_emits_need_no_bounce() {
     assert_eq!((dark.needed_depth(Vec3::ZERO), dark.needed_depth(Vec3::splat(0.1))), (0, u32::MAX));
     // Limited (gated) and unlimited (forced kernel: the job's full depth) renders agree: Le = 1
     // everywhere in the black furnace, nothing in the dark one.
-    let never = AtomicBool::new(false);
     let s = settings(Estimator::Mis, Roulette::Off, 4, Vec3::ZERO);
     for (scene, want) in [(&black, 1.0), (&dark, 0.0)] {
         for kernel in [None, Some(KernelBits::ALL)] {
-            let px = render_tile_kernel(scene, &s, s.full_frame(), 0..8, &never, kernel).unwrap().unwrap().pixels;
+            let px = render_tile(scene, &s, s.full_frame(), 0..8, &RenderOptions { kernel, ..RenderOptions::default() }).unwrap().pixels;
             assert!(px.iter().all(|p| p.mean() == [want; 3]), "{kernel:?}: {:?}", px[0].mean());
         }
     }

@@ -4,8 +4,8 @@
 //! loopback; they alternate `--repeats` times and the fastest of each is reported, with the
 //! scene preparations the workers reported (full builds, refits, their milliseconds). Affinity
 //! off hands out units in plain frame order, so every worker prepares every frame.
-use crate::client::Coordinator;
-use crate::local::{LocalFarm, with_farm};
+use tessera_server::client::Coordinator;
+use tessera_server::local::{LocalFarm, with_farm};
 use std::time::Instant;
 use tessera_proto::{FrameRange, Job, JobRequest, JobState};
 
@@ -51,7 +51,7 @@ pub struct FramesBench {
 }
 
 pub fn run(b: &FramesBench) -> anyhow::Result<()> {
-    crate::purge::for_scene_builders(); // as `tessera render` does
+    tessera_server::purge::for_scene_builders(); // as `tessera render` does
     let rt = tokio::runtime::Runtime::new()?;
     let (mut on, mut off) = (FramesRun { seconds: f64::INFINITY, ..FramesRun::default() }, FramesRun { seconds: f64::INFINITY, ..FramesRun::default() });
     for _ in 0..b.repeats.max(1) {
@@ -85,7 +85,7 @@ pub fn run(b: &FramesBench) -> anyhow::Result<()> {
 
 async fn once(b: &FramesBench, affinity: bool) -> anyhow::Result<FramesRun> {
     let scene = b.scene.clone();
-    let scratch = crate::scratch::ScratchDir::new(&format!("bench-frames-{affinity}"));
+    let scratch = tessera_server::scratch::ScratchDir::new(&format!("bench-frames-{affinity}"));
     let farm = LocalFarm { worker_threads: vec![b.threads.max(1); b.workers], frame_affinity: affinity };
     let mut request = JobRequest {
         scene: String::new(),
@@ -99,7 +99,7 @@ async fn once(b: &FramesBench, affinity: bool) -> anyhow::Result<FramesRun> {
     };
     let out = with_farm(scratch.path(), farm, |c: Coordinator| async move {
         let t0 = Instant::now();
-        request.scene = crate::client::scene_ref(&c, &scene).await?;
+        request.scene = tessera_server::client::scene_ref(&c, &scene).await?;
         let job = c.submit(&request).await?;
         let job: Job = c.wait(&job.id, |_| {}).await?;
         anyhow::ensure!(job.state == JobState::Done, "job ended {:?}: {:?}", job.state, job.message);

@@ -21,7 +21,7 @@ pub mod stock;
 /// there, with success, instead of panicking in the middle of a study.
 #[macro_export]
 macro_rules! say {
-    ($($arg:tt)*) => { $crate::bench::say_line(format_args!($($arg)*)) };
+    ($($arg:tt)*) => { $crate::say_line(format_args!($($arg)*)) };
 }
 
 /// The median of `v` (the mean of the middle two for an even count); NaN for none.
@@ -42,7 +42,7 @@ pub fn say_line(line: std::fmt::Arguments) {
         Ok(()) => {}
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
             // `exit` runs no destructors: the study's scratch directories go first.
-            crate::scratch::remove_all();
+            tessera_server::scratch::remove_all();
             std::process::exit(0)
         }
         Err(e) => panic!("failed printing to stdout: {e}"),

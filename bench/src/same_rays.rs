@@ -7,13 +7,14 @@
 //! The machine drifts by ±15 % within minutes, more than the differences measured, so the three
 //! timings run back to back in rounds and each round gives its own ratios; the median round
 //! and the range are printed.
-use crate::bench::bvh::{BvhBench, render_one_core};
-use crate::bench::overhead::settings;
-use crate::bench::stock::{StockBvh, ours_counted, ours_logged};
+use tessera_render::tracer::RenderOptions;
+use crate::bvh::{BvhBench, render_one_core};
+use crate::overhead::settings;
+use crate::stock::{StockBvh, ours_counted, ours_logged};
 use tessera_render::tracer::accel::{Accel, WalkCounts};
 use tessera_render::tracer::ray_log::{LoggedRay, RayLog, RayQuery};
 use std::path::Path;
-use tessera_render::tracer::{Scene, render_tile_logged};
+use tessera_render::tracer::{Scene, render_tile};
 
 /// One round's rates, in rays per second on one core.
 #[derive(Clone, Copy, Debug)]
@@ -84,7 +85,7 @@ fn say_embree(b: &BvhBench, logged: &[LoggedRay], rounds: &[Round]) {
         crate::say!("Mitsuba's traversal (Embree) not measured: the generated field is not a glTF (try --scene)");
         return;
     };
-    match crate::bench::embree::trace(&b.python, scene, logged) {
+    match crate::embree::trace(&b.python, scene, logged) {
         Ok(e) => crate::say!(
             "the same rays through Mitsuba's traversal (Embree, one core): {:.2} M rays/s ({} hit); ours is {:.0} % of it (closest-hit rays: {}, shadow rays: {})",
             e.rays_per_s / 1e6,
@@ -138,7 +139,7 @@ pub(crate) fn log_rays(scene: &Scene, size: u32, spp: u32) -> anyhow::Result<Vec
     let settings = settings(size)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let log = RayLog::new();
-    pool.install(|| render_tile_logged(scene, &settings, settings.full_frame(), 0..spp, &log)).map_err(anyhow::Error::msg)?;
+    pool.install(|| render_tile(scene, &settings, settings.full_frame(), 0..spp, &RenderOptions { ray_log: Some(&log), ..RenderOptions::default() })).map_err(anyhow::Error::msg)?;
     Ok(log.take())
 }
 
@@ -169,7 +170,7 @@ mod tests {
             LoggedRay { ray: Ray::new(Vec3::new(1.0, 2.0, 3.0), Vec3::new(0.0, -1.0, 0.5)), t_max: f32::INFINITY, query: RayQuery::Closest },
             LoggedRay { ray: Ray::new(Vec3::new(-4.0, 0.25, 9.0), Vec3::new(2.0, 0.0, -3.0)), t_max: 0.999, query: RayQuery::Occluded },
         ];
-        let dir = crate::scratch::ScratchDir::new("saved-rays");
+        let dir = tessera_server::scratch::ScratchDir::new("saved-rays");
         std::fs::create_dir_all(dir.path()).unwrap();
         let path = dir.path().join("rays.bin");
         write_rays(&path, &rays).unwrap();

@@ -5,6 +5,7 @@
 //! Cache files are keyed by the scene's SHA-256, the size, the spp, the seed and the crate version
 //! (bump [`CACHE_VERSION`] when the tracer's output changes) and hold per pixel the mean and the
 //! estimated variance of the mean (f64, little-endian) after a 32-byte header.
+use tessera_render::tracer::RenderOptions;
 use super::measure::rel_mse;
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
@@ -77,7 +78,7 @@ pub fn rendered_with(scene: &Scene, scene_bytes: &[u8], name: &str, size: u32, s
     let mut sums = vec![PixelSums::default(); (size * size) as usize];
     let chunk = 256.min(spp);
     for s0 in (0..spp).step_by(chunk as usize) {
-        let part = render_tile(scene, &settings, settings.full_frame(), s0..(s0 + chunk).min(spp)).map_err(anyhow::Error::msg)?;
+        let part = render_tile(scene, &settings, settings.full_frame(), s0..(s0 + chunk).min(spp), &RenderOptions::default()).map_err(anyhow::Error::msg)?;
         sums.iter_mut().zip(&part.pixels).for_each(|(s, p)| s.merge(p));
     }
     eprintln!("  reference {name}: {description} at {size}×{size} in {:.1} s → {}", started.elapsed().as_secs_f64(), file.display());

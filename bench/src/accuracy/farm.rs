@@ -69,7 +69,7 @@ pub fn run(options: &FarmOptions, seed: u64) -> anyhow::Result<Vec<FarmRow>> {
 }
 
 fn one_job(rt: &tokio::runtime::Runtime, o: &FarmOptions, seed: u64, workers: usize, threads_each: usize, tile: u32, batch: u32) -> anyhow::Result<FarmRow> {
-    let scratch = crate::scratch::ScratchDir::new(&format!("accuracy-farm-{workers}-{tile}-{batch}"));
+    let scratch = tessera_server::scratch::ScratchDir::new(&format!("accuracy-farm-{workers}-{tile}-{batch}"));
     let req = JobRequest {
         scene: "cornell-box".into(),
         width: o.farm_size,
@@ -82,7 +82,7 @@ fn one_job(rt: &tokio::runtime::Runtime, o: &FarmOptions, seed: u64, workers: us
         ..JobRequest::default()
     };
     let threads = vec![threads_each; workers];
-    let done = rt.block_on(crate::local::with_local_workers(scratch.path(), &threads, |c| async move {
+    let done = rt.block_on(tessera_server::local::with_local_workers(scratch.path(), &threads, |c| async move {
         let job = c.submit(&req).await?;
         c.wait(&job.id, |_| {}).await
     }));

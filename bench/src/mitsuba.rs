@@ -23,6 +23,7 @@
 //!   ratio were Tessera's time only its rays, traced at Embree's rate.
 //!
 //! Without Mitsuba the command renders Tessera's side and says how to install it.
+use tessera_render::tracer::RenderOptions;
 use super::accuracy::measure::rel_mse;
 use super::accuracy::reference::{self, Reference};
 use std::path::{Path, PathBuf};
@@ -126,7 +127,7 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
 }
 
 fn run_scene(b: &MitsubaBench, name: &str) -> anyhow::Result<Vec<Row>> {
-    let bytes = crate::bundled::get(name).ok_or_else(|| anyhow::anyhow!("no bundled scene {name:?}; bundled: {}", crate::bundled::names().join(", ")))?;
+    let bytes = tessera_server::bundled::get(name).ok_or_else(|| anyhow::anyhow!("no bundled scene {name:?}; bundled: {}", tessera_server::bundled::names().join(", ")))?;
     let scene = tessera_render::scene::load_bytes(bytes, None)?;
     let reference = reference::rendered_with(&scene, bytes, name, b.size, b.reference_spp, SamplerKind::Independent, &b.cache)?;
     let mut skip_mitsuba = b.skip_mitsuba;
@@ -226,7 +227,7 @@ fn tessera_row(scene: &Scene, name: &str, reference: &Reference, b: &MitsubaBenc
             camera: None,
         };
         let t = Instant::now();
-        let sums = render_tile(scene, &settings, settings.full_frame(), 0..spp).map_err(anyhow::Error::msg)?;
+        let sums = render_tile(scene, &settings, settings.full_frame(), 0..spp, &RenderOptions::default()).map_err(anyhow::Error::msg)?;
         seconds = seconds.min(t.elapsed().as_secs_f64());
         rays = sums.rays;
         error += rel_mse_above_reference(sums.pixels.iter().map(PixelSums::mean), reference);
@@ -246,7 +247,7 @@ pub fn rel_mse_above_reference(means: impl Iterator<Item = [f64; 3]>, reference:
 
 /// Runs the Mitsuba script at `spp` for every sampler and reads back its images.
 fn mitsuba_rows(name: &str, reference: &Reference, b: &MitsubaBench, spp: u32) -> anyhow::Result<Vec<Row>> {
-    let scratch = crate::scratch::ScratchDir::new("bench-mitsuba");
+    let scratch = tessera_server::scratch::ScratchDir::new("bench-mitsuba");
     let out_dir = scratch.path();
     let mut cmd = python_script(&b.python, "mitsuba_render.py")?;
     cmd.args(["--scene", name])
@@ -268,7 +269,7 @@ fn mitsuba_rows(name: &str, reference: &Reference, b: &MitsubaBench, spp: u32) -
     for line in stdout.lines().filter(|l| l.starts_with("render ")) {
         let field = |k: &str| line.split(' ').find_map(|f| f.strip_prefix(k)).ok_or_else(|| anyhow::anyhow!("no {k} in {line:?}"));
         let (sampler, seconds, out) = (field("sampler=")?, field("seconds=")?.parse::<f64>()?, field("out=")?);
-        let (image, _) = crate::output::decode_exr(&std::fs::read(out)?)?;
+        let (image, _) = tessera_server::output::decode_exr(&std::fs::read(out)?)?;
         anyhow::ensure!(image.width == b.size as usize && image.height == b.size as usize, "Mitsuba wrote a {}×{} image", image.width, image.height);
         let error = rel_mse_above_reference(image.rgb.iter().map(|p| p.map(f64::from)), reference);
         match rows.iter_mut().find(|r| r.sampler == sampler) {

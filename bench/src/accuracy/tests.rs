@@ -1,6 +1,7 @@
 //! The study keeps working (`--quick`), its progressive ladder equals plain renders, and no
 //! estimator is biased: on the Cornell box with independent samples every estimator's relMSE
 //! falls as spp⁻¹.
+use tessera_render::tracer::RenderOptions;
 use super::measure::{self, Budget, Config, Point};
 use super::reference::{REFERENCE_SEED, Reference};
 use super::stats::log_log_slope;
@@ -15,12 +16,12 @@ struct Cli {
 }
 
 fn cornell() -> Scene {
-    tessera_render::scene::load_bytes(crate::bundled::get("cornell-box").unwrap(), None).unwrap()
+    tessera_render::scene::load_bytes(tessera_server::bundled::get("cornell-box").unwrap(), None).unwrap()
 }
 
 fn reference(scene: &Scene, size: u32, spp: u32) -> Reference {
     let settings = Config { estimator: Estimator::Mis, sampler: SamplerKind::Independent, roulette: true }.settings(size, REFERENCE_SEED);
-    let sums = render_tile(scene, &settings, settings.full_frame(), 0..spp).unwrap().pixels;
+    let sums = render_tile(scene, &settings, settings.full_frame(), 0..spp, &RenderOptions::default()).unwrap().pixels;
     Reference {
         means: sums.iter().map(PixelSums::mean).collect(),
         variance: sums.iter().map(PixelSums::variance_of_mean).collect(),
@@ -62,7 +63,7 @@ fn the_progressive_ladder_equals_plain_renders() {
     let points = measure::converge(&scene, &settings, &reference, Budget { seconds: f64::INFINITY, max_spp: 8 }).unwrap();
     assert_eq!(points.iter().map(|p| p.spp).collect::<Vec<_>>(), [1, 2, 4, 8]);
     for p in points {
-        let plain = render_tile(&scene, &settings, settings.full_frame(), 0..p.spp).unwrap();
+        let plain = render_tile(&scene, &settings, settings.full_frame(), 0..p.spp, &RenderOptions::default()).unwrap();
         let direct = reference.rel_mse(&plain.pixels);
         // Same samples; only the order of f64 additions differs.
         assert!((p.rel_mse - direct).abs() <= 1e-9 * direct, "{} spp: {} vs {direct}", p.spp, p.rel_mse);

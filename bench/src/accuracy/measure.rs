@@ -4,6 +4,7 @@
 //! Rendering is progressive: sample indices [0, 1), [1, 2), [2, 4), … are rendered in turn and
 //! their sums added. Randomness is addressed by sample index, so the sums after [0, n) are
 //! exactly those of one n-spp render, and the whole ladder costs what its last rung costs.
+use tessera_render::tracer::RenderOptions;
 use super::reference::Reference;
 use std::time::Instant;
 use tessera_render::tracer::integrator::PathSettings;
@@ -75,7 +76,7 @@ pub fn converge(scene: &Scene, settings: &RenderSettings, reference: &Reference,
     loop {
         let next = (done * 2).max(1);
         let t = Instant::now();
-        let part = render_tile(scene, settings, settings.full_frame(), done..next)?;
+        let part = render_tile(scene, settings, settings.full_frame(), done..next, &RenderOptions::default()).map_err(|e| e.to_string())?;
         elapsed += t.elapsed().as_secs_f64();
         sums.iter_mut().zip(&part.pixels).for_each(|(s, p)| s.merge(p));
         done = next;

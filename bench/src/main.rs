@@ -4,7 +4,7 @@
 //!                              coordinator + 1 worker over loopback HTTP, in interleaved pairs;
 //!                              prints fastest and median of each, the median per-pair ratio
 //!                              with its confidence interval, the worker's idle time and the
-//!                              threads' CPU split (tessera_server::bench::overhead).
+//!                              threads' CPU split (tessera_bench::overhead).
 //! `tessera-bench roundtrips` — a coordinator on one core fed by fake workers that return
 //!                              results instantly, each answer carrying the next lease as for real
 //!                              workers (`--separate-leases`: a lease request per unit;
@@ -14,25 +14,26 @@
 //!                              kernel (Lambert + lights only) and every effect forced on.
 //! `tessera-bench accuracy`   — the accuracy study (issue #10): relMSE vs time per scene, estimator,
 //!                              sampler and roulette, plus tile/batch sizes through a local farm;
-//!                              writes docs/accuracy/ (tessera_server::bench::accuracy).
+//!                              writes docs/accuracy/ (tessera_bench::accuracy).
 //! `tessera-bench bvh`        — a generated ~1M-triangle scene (or `--scene NAME`): build time,
 //!                              incoherent rays per second (one core, all cores; obvhs's stock
 //!                              traversal on the same rays), a path-traced render's rays per second
 //!                              against both, the heap the mesh and the scene hold and the
-//!                              build's peak, peak resident memory (tessera_server::bench::bvh).
+//!                              build's peak, peak resident memory (tessera_bench::bvh).
 //! `tessera-bench field`      — writes that generated field as binary glTF, to render it as a job
-//!                              (tessera_server::bench::field).
+//!                              (tessera_bench::field).
 //! `tessera-bench frames`     — an animation job on local workers with frame affinity on and off:
 //!                              time per frame and the scene builds/refits workers reported.
 //! `tessera-bench mitsuba`    — time to quality (relMSE × seconds) on the Cornell box against
 //!                              Mitsuba 3 in the same run, and the floor under that ratio
 //!                              were every ray traced at Embree's rate and nothing else timed
-//!                              (tessera_server::bench::mitsuba, speed_floor).
+//!                              (tessera_bench::mitsuba, speed_floor).
+use tessera_render::tracer::RenderOptions;
 use clap::{Parser, Subcommand};
 use std::time::{Duration, Instant};
 use tessera_proto::{JobRequest, PartialSums, TileRect, WirePixel};
 use tessera_server::bundled;
-use tessera_render::tracer::{KernelBits, render_tile_kernel};
+use tessera_render::tracer::{KernelBits, render_tile};
 
 #[derive(Parser)]
 #[command(about = "Tessera benchmarks: print figures, assert nothing")]
@@ -46,7 +47,7 @@ enum Cmd {
     /// Tracer alone vs coordinator + 1 worker on the same job, in interleaved pairs: fastest and
     /// median of each, median of the per-pair ratios with its confidence interval, the worker's
     /// idle time within the job, and each farm run's CPU split between render and other threads.
-    Overhead(tessera_server::bench::overhead::OverheadBench),
+    Overhead(tessera_bench::overhead::OverheadBench),
     /// Effect gating: gated vs matte-only vs all-effects kernels on the same frame.
     Effects {
         #[arg(long, default_value = "cornell-box")]
@@ -62,13 +63,13 @@ enum Cmd {
     /// The accuracy study: relMSE vs render time for every estimator × sampler × roulette on the
     /// study's scenes, and time to a noise target vs tile and batch size through a local farm.
     /// Writes a markdown report and one SVG plot per scene.
-    Accuracy(tessera_server::bench::accuracy::Options),
+    Accuracy(tessera_bench::accuracy::Options),
     /// A generated ~1M-triangle scene (or a bundled one): build time, incoherent rays/s (ours and
     /// obvhs's stock traversal on the same rays), a path-traced render's rays/s against both,
     /// peak memory; then the render's own rays, logged, traced alone through both BVHs, with our
     /// walk's node and packet tests per ray; last, an animation frame's BVH refitted against one
     /// built, the scene deformed by waves of three sizes.
-    Bvh(tessera_server::bench::bvh::BvhBench),
+    Bvh(tessera_bench::bvh::BvhBench),
     /// Writes the generated field `bvh` studies as binary glTF (positions only: 36 bytes a
     /// triangle), so it can be rendered as a job: `tessera render field.glb` then reports the
     /// workers' scene load + BVH build time and peak memory.
@@ -86,10 +87,10 @@ enum Cmd {
         sliding: bool,
     },
     /// An animation job (frames 0..N−1) on local workers with frame affinity on and off.
-    Frames(tessera_server::bench::frames::FramesBench),
+    Frames(tessera_bench::frames::FramesBench),
     /// Time to quality (relMSE × seconds) on the Cornell box, Tessera vs Mitsuba 3 in one run;
     /// each scene ends with the floor speed alone sets (every ray at Embree's rate, nothing else timed).
-    Mitsuba(tessera_server::bench::mitsuba::MitsubaBench),
+    Mitsuba(tessera_bench::mitsuba::MitsubaBench),
     /// Unit round trips per second through a one-core coordinator, fed by fake workers whose
     /// results ask for the next lease as real workers' do.
     Roundtrips {
@@ -120,43 +121,42 @@ enum Cmd {
 /// Wrapped in a counter of the bytes held (`bench::heap`), for the memory `tessera-bench bvh`
 /// reports per phase.
 #[global_allocator]
-static ALLOCATOR: tessera_server::bench::heap::Counting<mimalloc::MiMalloc> = tessera_server::bench::heap::Counting(mimalloc::MiMalloc);
+static ALLOCATOR: tessera_bench::heap::Counting<mimalloc::MiMalloc> = tessera_bench::heap::Counting(mimalloc::MiMalloc);
 
 fn main() -> anyhow::Result<()> {
-    tessera_server::bench::heap::installed();
+    tessera_bench::heap::installed();
     let cmd = Cli::parse().cmd;
-    tessera_server::say!("{}", tessera_server::bench::host::describe());
+    tessera_bench::say!("{}", tessera_bench::host::describe());
     match cmd {
-        Cmd::Overhead(b) => tessera_server::bench::overhead::run(&b),
+        Cmd::Overhead(b) => tessera_bench::overhead::run(&b),
         Cmd::Roundtrips { seconds, workers, tile, separate_leases, watchers } => roundtrips(seconds, workers, tile, !separate_leases, watchers),
         Cmd::Effects { scene, size, spp, repeats } => effects(&scene, size, spp, repeats),
-        Cmd::Accuracy(options) => tessera_server::bench::accuracy::run(options).map(|_| ()),
+        Cmd::Accuracy(options) => tessera_bench::accuracy::run(options).map(|_| ()),
         Cmd::Field { triangles, output, sliding } => write_field(triangles, &output, sliding),
-        Cmd::Frames(b) => tessera_server::bench::frames::run(&b),
-        Cmd::Bvh(b) => tessera_server::bench::bvh::run(&b),
-        Cmd::Mitsuba(b) => tessera_server::bench::mitsuba::run(&b).map(|_| ()),
+        Cmd::Frames(b) => tessera_bench::frames::run(&b),
+        Cmd::Bvh(b) => tessera_bench::bvh::run(&b),
+        Cmd::Mitsuba(b) => tessera_bench::mitsuba::run(&b).map(|_| ()),
     }
 }
 
 fn effects(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Result<()> {
     let scene = bundled::load(scene_name)?;
-    let settings = tessera_server::bench::overhead::settings(size)?;
+    let settings = tessera_bench::overhead::settings(size)?;
     let gated_bits = scene.effects_for(scene.camera(None).map_err(anyhow::Error::msg)?, settings.background).kernel();
     let kernels = [("gated", None), ("matte only", Some(KernelBits::MATTE)), ("all effects on", Some(KernelBits::ALL))];
-    let never = std::sync::atomic::AtomicBool::new(false);
     let mut best = [f64::INFINITY; 3];
     for _ in 0..repeats {
         // Interleaved so that machine load drifts hit all three alike.
         for (k, (_, bits)) in kernels.iter().enumerate() {
             let t = Instant::now();
-            render_tile_kernel(&scene, &settings, settings.full_frame(), 0..spp, &never, *bits).map_err(anyhow::Error::msg)?;
+            render_tile(&scene, &settings, settings.full_frame(), 0..spp, &RenderOptions { kernel: *bits, ..RenderOptions::default() }).map_err(anyhow::Error::msg)?;
             best[k] = best[k].min(t.elapsed().as_secs_f64());
         }
     }
     let samples = size as f64 * size as f64 * spp as f64;
-    tessera_server::say!("effects: {scene_name} {size}x{size} {spp} spp, effects {:?}, gated kernel bits {:#06b}, fastest of {repeats}", scene.effects.names(), gated_bits.0);
+    tessera_bench::say!("effects: {scene_name} {size}x{size} {spp} spp, effects {:?}, gated kernel bits {:#06b}, fastest of {repeats}", scene.effects.names(), gated_bits.0);
     for (k, (name, _)) in kernels.iter().enumerate() {
-        tessera_server::say!("  {name:<15} {:8.3} s  {:>10.0} samples/s  {:+6.2} % vs matte", best[k], samples / best[k], (best[k] / best[1] - 1.0) * 100.0);
+        tessera_bench::say!("  {name:<15} {:8.3} s  {:>10.0} samples/s  {:+6.2} % vs matte", best[k], samples / best[k], (best[k] / best[1] - 1.0) * 100.0);
     }
     Ok(())
 }
@@ -213,11 +213,11 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool, w
     })?;
     let merge_ns = state.counters.merge_nanos.load(std::sync::atomic::Ordering::Relaxed) as f64;
     let leases = if next_with_result { "the next lease in each result's answer" } else { "a lease request per unit" };
-    tessera_server::say!("roundtrips: {workers} fake workers, {tile}x{tile} tiles, 1 spp units, {leases}, coordinator on one core");
-    tessera_server::say!("  {units} units in {elapsed:.2} s = {:.0} unit round trips/s", units as f64 / elapsed);
-    tessera_server::say!("  merge cost {:.1} µs per unit (decode excluded)", merge_ns / units.max(1) as f64 / 1000.0);
+    tessera_bench::say!("roundtrips: {workers} fake workers, {tile}x{tile} tiles, 1 spp units, {leases}, coordinator on one core");
+    tessera_bench::say!("  {units} units in {elapsed:.2} s = {:.0} unit round trips/s", units as f64 / elapsed);
+    tessera_bench::say!("  merge cost {:.1} µs per unit (decode excluded)", merge_ns / units.max(1) as f64 / 1000.0);
     if watchers > 0 {
-        tessera_server::say!("  {watchers} clients followed the job's events: {events} statuses received in all");
+        tessera_bench::say!("  {watchers} clients followed the job's events: {events} statuses received in all");
     }
     Ok(())
 }
@@ -270,10 +270,10 @@ async fn fake_worker(i: usize, http: reqwest::Client, url: String, template: Vec
 }
 
 fn write_field(triangles: usize, output: &std::path::Path, sliding: bool) -> anyhow::Result<()> {
-    use tessera_server::bench::field;
+    use tessera_bench::field;
     let spheres = field::sphere_field(triangles);
     let glb = if sliding { field::sliding_field_glb(&spheres) } else { field::field_glb(&spheres) };
     std::fs::write(output, &glb).map_err(|e| anyhow::anyhow!("writing {}: {e}", output.display()))?;
-    tessera_server::say!("{}: {} triangles (the spheres, a ground and a light), {:.1} MiB", output.display(), spheres.len() + 4, glb.len() as f64 / f64::from(1 << 20));
+    tessera_bench::say!("{}: {} triangles (the spheres, a ground and a light), {:.1} MiB", output.display(), spheres.len() + 4, glb.len() as f64 / f64::from(1 << 20));
     Ok(())
 }

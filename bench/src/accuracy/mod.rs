@@ -124,8 +124,8 @@ pub fn run(options: Options) -> anyhow::Result<Study> {
 
 fn study_scene(name: &str, options: &Options) -> anyhow::Result<SceneResult> {
     let analytic = SCENES.iter().find(|(n, _)| *n == name).and_then(|(_, v)| *v);
-    let bytes = crate::bundled::get(name)
-        .ok_or_else(|| anyhow::anyhow!("{name:?} is not a bundled scene ({})", crate::bundled::names().join(", ")))?;
+    let bytes = tessera_server::bundled::get(name)
+        .ok_or_else(|| anyhow::anyhow!("{name:?} is not a bundled scene ({})", tessera_server::bundled::names().join(", ")))?;
     let scene = tessera_render::scene::load_bytes(bytes, None)?;
     let pixels = (options.size * options.size) as usize;
     let reference = match analytic {

@@ -11,11 +11,11 @@
 //!
 //! Both rates are one core's, measured on one render (`tessera-bench bvh`'s default size and
 //! spp, `mis` + Sobol): the render timed alone (the faster of two runs), and its
-//! logged rays through Embree ([`crate::bench::embree`]). Rays per sample do not depend on the
+//! logged rays through Embree ([`crate::embree`]). Rays per sample do not depend on the
 //! image's size or the thread count, so one core's rates stand for the compared render's.
-use crate::bench::bvh::{RENDER_SIZE as SIZE, RENDER_SPP as SPP};
-use crate::bench::embree::{self, EmbreeRate};
-use crate::bench::same_rays::{log_rays, render_timed};
+use crate::bvh::{RENDER_SIZE as SIZE, RENDER_SPP as SPP};
+use crate::embree::{self, EmbreeRate};
+use crate::same_rays::{log_rays, render_timed};
 use tessera_render::tracer::Scene;
 
 /// Prints the floor under each (spp, ratio) of bundled scene `name`, or why it was not measured.
@@ -55,7 +55,7 @@ mod tests {
 
     #[test]
     fn without_mitsuba_it_says_why_instead_of_failing() {
-        let scene = tessera_render::scene::load_bytes(crate::bundled::get("cornell-box").expect("bundled"), None).expect("loads");
+        let scene = tessera_render::scene::load_bytes(tessera_server::bundled::get("cornell-box").expect("bundled"), None).expect("loads");
         let err = rates("/nonexistent/python3", "cornell-box", &scene).expect_err("no interpreter");
         assert!(format!("{err:#}").contains("/nonexistent/python3"), "{err:#}");
         say("/nonexistent/python3", "cornell-box", &scene, &[(64, 1.7)]);

@@ -2,14 +2,14 @@
 //! `tessera-bench bvh --scene NAME` when Mitsuba is installed.
 //!
 //! `tessera-bench mitsuba` compares whole renders; this says how much of the difference is
-//! traversal. The rays [`crate::bench::same_rays`] logged are written to a scratch file and
+//! traversal. The rays [`crate::same_rays`] logged are written to a scratch file and
 //! traced by `tests/reference/embree_rays.py` (one thread, the median of its rounds) in the same
 //! scene loaded from its glTF, every surface matte (materials do not change what a ray hits,
 //! except alpha masks: Embree sees masked surfaces as opaque, so on `alpha-mask` its hit count
 //! differs from ours and the rates compare different work; both hit counts are printed).
 //! Without Mitsuba, or for the generated field (not a glTF), the study says why and goes on.
-use crate::bench::mitsuba::python_script;
-use crate::bench::same_rays::write_rays;
+use crate::mitsuba::python_script;
+use crate::same_rays::write_rays;
 use tessera_render::tracer::ray_log::LoggedRay;
 
 const INSTALL: &str = "needs `pip install mitsuba numpy` and Debian's libllvm19";
@@ -27,7 +27,7 @@ pub struct EmbreeRate {
 
 /// Traces `rays` of the bundled scene (or glTF path) `scene` through Mitsuba's Embree.
 pub fn trace(python: &str, scene: &str, rays: &[LoggedRay]) -> anyhow::Result<EmbreeRate> {
-    let scratch = crate::scratch::ScratchDir::new("bench-embree");
+    let scratch = tessera_server::scratch::ScratchDir::new("bench-embree");
     std::fs::create_dir_all(scratch.path())?;
     let file = scratch.path().join("rays.bin");
     write_rays(&file, rays)?;
@@ -87,7 +87,7 @@ mod tests {
     /// A stand-in for python3 that checks it was handed the ray file and answers as the script.
     #[test]
     fn the_rays_reach_the_script_and_its_failure_is_said() {
-        let dir = crate::scratch::ScratchDir::new("bench-embree-fake");
+        let dir = tessera_server::scratch::ScratchDir::new("bench-embree-fake");
         std::fs::create_dir_all(dir.path()).unwrap();
         let fake = |name: &str, body: &str| {
             let path = dir.path().join(name);

@@ -14,14 +14,14 @@
 //! `busy`), and each thread's CPU time (the render threads against all the others).
 use super::cpu::{cpu_seconds, cpu_since, threads_cpu};
 use super::median;
-use crate::bundled;
-use crate::local::{LocalFarm, with_farm_reports};
+use tessera_server::bundled;
+use tessera_server::local::{LocalFarm, with_farm_reports};
 use std::sync::Arc;
 use std::time::Instant;
 use tessera_proto::JobRequest;
 use tessera_worker::client::render_settings;
-use crate::image;
-use crate::output::encode_exr;
+use tessera_server::image;
+use tessera_server::output::encode_exr;
 use tessera_render::tracer::{PixelSums, RenderSettings, RowQueue, Scene, Tile};
 
 #[derive(Clone, Debug, clap::Args)]
@@ -247,7 +247,7 @@ fn alone_run(scene: &Arc<Scene>, settings: &RenderSettings, b: &OverheadBench) -
 
 /// The same job through a local coordinator + 1 worker (all cores), EXR downloaded.
 fn farm_run(rt: &tokio::runtime::Runtime, b: &OverheadBench, r: u32) -> anyhow::Result<FarmRun> {
-    let scratch = crate::scratch::ScratchDir::new(&format!("bench-{r}"));
+    let scratch = tessera_server::scratch::ScratchDir::new(&format!("bench-{r}"));
     let req = JobRequest {
         scene: b.scene.clone(),
         width: b.size,

@@ -6,7 +6,7 @@
 //! through the refitted tree against a tree built for the moved triangles, with the hits
 //! checked equal (a refitted tree is slower to walk, never wrong), and the refitted tree's wear
 //! ([`Accel::wear`]), by which a worker decides to build instead.
-use crate::bench::heap;
+use crate::heap;
 use glam::Vec3;
 use std::f32::consts::TAU;
 use std::time::Instant;
@@ -71,7 +71,7 @@ fn held(_accel: &Accel, before: usize) -> usize {
 
 /// `positions` with every vertex moved along a wave through space.
 fn waved(positions: &[[Vec3; 3]], amplitude: f32) -> Vec<[Vec3; 3]> {
-    let (lo, hi) = crate::bench::field::bounds(positions);
+    let (lo, hi) = crate::field::bounds(positions);
     let size = (hi - lo).max_element();
     let k = TAU / (WAVELENGTH * size);
     let shift = |v: Vec3| v + amplitude * size * Vec3::new((k * v.y).sin(), (k * v.z).sin(), (k * v.x).sin());

@@ -5,15 +5,16 @@
 //! (issue #9: rendering should keep ≥ 70 % of the traversal rate, i.e. shading and sampling cost
 //! less than tracing), and the process's peak resident memory. Last, the render's own rays
 //! (logged by a second render) are traced alone through both BVHs: the fair comparison, since
-//! random rays are not the rays a path tracer traces (see [`crate::bench::stock`]); for a glTF
+//! random rays are not the rays a path tracer traces (see [`crate::stock`]); for a glTF
 //! scene, where Mitsuba 3 is installed, also through its traversal, Embree
-//! ([`crate::bench::embree`]). Last, an animation frame's BVH refitted against one built anew
-//! ([`crate::bench::refit`]).
+//! ([`crate::embree`]). Last, an animation frame's BVH refitted against one built anew
+//! ([`crate::refit`]).
 //!
-//! The field is generated ([`crate::bench::field`]; no mesh file is shipped).
-use crate::bench::field::{bounds, field_parts, sphere_field};
-use crate::bench::heap;
-use crate::bench::overhead::settings;
+//! The field is generated ([`crate::field`]; no mesh file is shipped).
+use tessera_render::tracer::RenderOptions;
+use crate::field::{bounds, field_parts, sphere_field};
+use crate::heap;
+use crate::overhead::settings;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -21,8 +22,8 @@ use std::path::PathBuf;
 use std::time::Instant;
 use tessera_render::tracer::ray::Ray;
 use tessera_render::tracer::{Scene, render_tile};
-use crate::bench::{refit, same_rays};
-use crate::bench::stock::StockBvh;
+use crate::{refit, same_rays};
+use crate::stock::StockBvh;
 
 /// The path-traced render's default width and height, and samples per pixel: a few hundred
 /// thousand rays, enough for stable rates in a second or two (also `speed_floor.rs`'s render).
@@ -63,7 +64,7 @@ pub struct BvhBench {
 
 pub fn run(b: &BvhBench) -> anyhow::Result<()> {
     // Its peak is reported as what a worker holds: with the allocator set as a worker's.
-    crate::purge::for_scene_builders();
+    tessera_server::purge::for_scene_builders();
     // Random rays start anywhere in the geometry's box (for the field: the spheres', not the light's).
     // The global thread pool's own allocations are not the scene's: start it first.
     rayon::current_num_threads();
@@ -72,7 +73,7 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
         Some(name) => {
             heap::reset_peak();
             let t = Instant::now();
-            let scene = crate::bundled::load(name)?;
+            let scene = tessera_server::bundled::load(name)?;
             let build = t.elapsed().as_secs_f64();
             let ray_box = bounds(&scene.mesh.positions);
             (scene, build, format!("{name}, loaded"), ray_box, None)
@@ -142,7 +143,7 @@ pub(crate) fn render_one_core(scene: &Scene, size: u32, spp: u32) -> anyhow::Res
     let settings = settings(size)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let t = Instant::now();
-    let sums = pool.install(|| render_tile(scene, &settings, settings.full_frame(), 0..spp)).map_err(anyhow::Error::msg)?;
+    let sums = pool.install(|| render_tile(scene, &settings, settings.full_frame(), 0..spp, &RenderOptions::default())).map_err(anyhow::Error::msg)?;
     Ok((sums.rays, t.elapsed().as_secs_f64()))
 }
 
