@@ -8,8 +8,10 @@ use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
 fn main() {
-    let crate_dir = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
-    let roots = [crate_dir.join("src"), crate_dir.join("Cargo.toml"), crate_dir.join("../Cargo.lock")];
+    let crate_dir =
+        PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+    let roots =
+        [crate_dir.join("src"), crate_dir.join("Cargo.toml"), crate_dir.join("../Cargo.lock")];
     let mut files = Vec::new();
     for root in &roots {
         // Missing (a crate packaged on its own): fingerprint what there is.
@@ -21,8 +23,10 @@ fn main() {
     files.sort();
     let mut hash = Sha256::new();
     for file in &files {
-        let name = file.strip_prefix(&crate_dir).unwrap_or(file).to_string_lossy().replace('\\', "/");
-        let bytes = std::fs::read(file).unwrap_or_else(|e| panic!("reading {}: {e}", file.display()));
+        let name =
+            file.strip_prefix(&crate_dir).unwrap_or(file).to_string_lossy().replace('\\', "/");
+        let bytes =
+            std::fs::read(file).unwrap_or_else(|e| panic!("reading {}: {e}", file.display()));
         hash.update((name.len() as u64).to_le_bytes());
         hash.update(name.as_bytes());
         hash.update((bytes.len() as u64).to_le_bytes());
@@ -39,7 +43,8 @@ fn collect(path: &Path, out: &mut Vec<PathBuf>) {
         if name == "tests" {
             return;
         }
-        let entries = std::fs::read_dir(path).unwrap_or_else(|e| panic!("listing {}: {e}", path.display()));
+        let entries =
+            std::fs::read_dir(path).unwrap_or_else(|e| panic!("listing {}: {e}", path.display()));
         for entry in entries {
             collect(&entry.expect("directory entry").path(), out);
         }

@@ -11,19 +11,19 @@
 //! ([`crate::refit`]).
 //!
 //! The field is generated ([`crate::field`]; no mesh file is shipped).
-use tessera_render::tracer::RenderOptions;
 use crate::field::{bounds, field_parts, sphere_field};
 use crate::heap;
 use crate::overhead::settings;
+use crate::stock::StockBvh;
+use crate::{refit, same_rays};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::path::PathBuf;
 use std::time::Instant;
+use tessera_render::tracer::RenderOptions;
 use tessera_render::tracer::ray::Ray;
 use tessera_render::tracer::{Scene, render_tile};
-use crate::{refit, same_rays};
-use crate::stock::StockBvh;
 
 /// The path-traced render's default width and height, and samples per pixel: a few hundred
 /// thousand rays, enough for stable rates in a second or two (also `speed_floor.rs`'s render).
@@ -86,7 +86,13 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
             heap::reset_peak();
             let t = Instant::now();
             let scene = Scene::new(mesh, materials, vec![], vec![camera], vec![]);
-            (scene, t.elapsed().as_secs_f64(), "displaced spheres under a light".to_string(), ray_box, Some(mesh_bytes))
+            (
+                scene,
+                t.elapsed().as_secs_f64(),
+                "displaced spheres under a light".to_string(),
+                ray_box,
+                Some(mesh_bytes),
+            )
         }
     };
     let accel = &scene.accel;
@@ -116,12 +122,20 @@ pub fn run(b: &BvhBench) -> anyhow::Result<()> {
     );
     let (traced, secs) = render_one_core(&scene, b.size, b.spp)?;
     if let Some(m) = tessera_worker::memory::process_memory() {
-        crate::say!("peak resident memory, the scene built, traced and rendered (what a worker holds, plus the {} MiB of random rays): {:.0} MiB", (rays.len() * size_of::<Ray>()) >> 20, m.peak_rss_bytes as f64 / f64::from(1 << 20));
+        crate::say!(
+            "peak resident memory, the scene built, traced and rendered (what a worker holds, plus the {} MiB of random rays): {:.0} MiB",
+            (rays.len() * size_of::<Ray>()) >> 20,
+            m.peak_rss_bytes as f64 / f64::from(1 << 20)
+        );
     }
     let stock = StockBvh::new(&scene.mesh.positions);
     let (stock_hits, stock_s) = stock.trace(&rays);
     let stock_rate = rays.len() as f64 / stock_s;
-    crate::say!("the same rays through obvhs's own traversal and Möller–Trumbore test: {:.2} M rays/s on one core ({stock_hits} hits); ours is {:.0} % of it", stock_rate / 1e6, 100.0 * one / stock_rate);
+    crate::say!(
+        "the same rays through obvhs's own traversal and Möller–Trumbore test: {:.2} M rays/s on one core ({stock_hits} hits); ours is {:.0} % of it",
+        stock_rate / 1e6,
+        100.0 * one / stock_rate
+    );
     let rendering = traced as f64 / secs;
     crate::say!(
         "path tracing it ({0}×{0}, {1} spp, mis + Sobol, camera + bounce + shadow rays): {2:.2} M rays/s on one core ({3:.1} rays per sample) = {4:.0} % of our traversal rate above, {5:.0} % of obvhs's",
@@ -143,7 +157,11 @@ pub(crate) fn render_one_core(scene: &Scene, size: u32, spp: u32) -> anyhow::Res
     let settings = settings(size)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let t = Instant::now();
-    let sums = pool.install(|| render_tile(scene, &settings, settings.full_frame(), 0..spp, &RenderOptions::default())).map_err(anyhow::Error::msg)?;
+    let sums = pool
+        .install(|| {
+            render_tile(scene, &settings, settings.full_frame(), 0..spp, &RenderOptions::default())
+        })
+        .map_err(anyhow::Error::msg)?;
     Ok((sums.rays, t.elapsed().as_secs_f64()))
 }
 
@@ -175,7 +193,11 @@ fn say_heap(start: usize, generated: Option<usize>, scene: &Scene) {
         return;
     }
     let per = |bytes: usize| bytes as f64 / scene.mesh.len().max(1) as f64;
-    let (held, peak, mesh) = (heap::live().saturating_sub(start), heap::peak().saturating_sub(start), scene.mesh.heap_bytes());
+    let (held, peak, mesh) = (
+        heap::live().saturating_sub(start),
+        heap::peak().saturating_sub(start),
+        scene.mesh.heap_bytes(),
+    );
     let rest = held.saturating_sub(mesh);
     match generated {
         Some(generated) => crate::say!(

@@ -11,7 +11,12 @@ pub fn threads_cpu() -> Vec<(u64, bool, f64)> {
         .filter_map(|t| {
             let tid = t.file_name().to_str()?.parse().ok()?;
             let name = std::fs::read_to_string(t.path().join("comm")).ok()?;
-            let ns: f64 = std::fs::read_to_string(t.path().join("schedstat")).ok()?.split_whitespace().next()?.parse().ok()?;
+            let ns: f64 = std::fs::read_to_string(t.path().join("schedstat"))
+                .ok()?
+                .split_whitespace()
+                .next()?
+                .parse()
+                .ok()?;
             Some((tid, name.starts_with("tessera-render"), ns * 1e-9))
         })
         .collect()

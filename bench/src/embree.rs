@@ -47,8 +47,14 @@ pub fn trace(python: &str, scene: &str, rays: &[LoggedRay]) -> anyhow::Result<Em
 /// Reads the script's lines `closest-hit: …`, `shadow: …` and, last, `… all N rays, H hit,
 /// R M rays/s`.
 fn parse_total(stdout: &str) -> anyhow::Result<EmbreeRate> {
-    let line = stdout.lines().rev().find(|l| l.contains(" all ")).ok_or_else(|| anyhow::anyhow!("the Embree script printed no total"))?;
-    let kind = |prefix: &str| stdout.lines().find(|l| l.starts_with(prefix)).map(|l| number_before(l, "M")).transpose();
+    let line = stdout
+        .lines()
+        .rev()
+        .find(|l| l.contains(" all "))
+        .ok_or_else(|| anyhow::anyhow!("the Embree script printed no total"))?;
+    let kind = |prefix: &str| {
+        stdout.lines().find(|l| l.starts_with(prefix)).map(|l| number_before(l, "M")).transpose()
+    };
     Ok(EmbreeRate {
         rays: number_before(line, "rays")? as u64,
         hits: number_before(line, "hit")? as u64,
@@ -61,8 +67,13 @@ fn parse_total(stdout: &str) -> anyhow::Result<EmbreeRate> {
 /// The number just before the first word `word` (a trailing comma ignored) in `line`.
 fn number_before(line: &str, word: &str) -> anyhow::Result<f64> {
     let words: Vec<&str> = line.split_whitespace().collect();
-    let i = words.iter().position(|w| w.trim_end_matches(',') == word).ok_or_else(|| anyhow::anyhow!("no {word:?} in {line:?}"))?;
-    let number = words.get(i.wrapping_sub(1)).ok_or_else(|| anyhow::anyhow!("no number before {word:?} in {line:?}"))?;
+    let i = words
+        .iter()
+        .position(|w| w.trim_end_matches(',') == word)
+        .ok_or_else(|| anyhow::anyhow!("no {word:?} in {line:?}"))?;
+    let number = words
+        .get(i.wrapping_sub(1))
+        .ok_or_else(|| anyhow::anyhow!("no number before {word:?} in {line:?}"))?;
     number.parse().map_err(|_| anyhow::anyhow!("{number:?} is not a number in {line:?}"))
 }
 
@@ -78,10 +89,21 @@ mod tests {
     fn the_scripts_total_line_is_read() {
         let out = "closest-hit: 10 rays, 8 hit, 17.43 M rays/s (median of 5 rounds, 1 thread)\n\
                    mitsuba 3.9.1 llvm_ad_rgb (Embree: True): all 1598232 rays, 919386 hit, 20.30 M rays/s\n";
-        let rate = EmbreeRate { rays: 1_598_232, hits: 919_386, rays_per_s: 20.30e6, closest_per_s: Some(17.43e6), shadow_per_s: None };
+        let rate = EmbreeRate {
+            rays: 1_598_232,
+            hits: 919_386,
+            rays_per_s: 20.30e6,
+            closest_per_s: Some(17.43e6),
+            shadow_per_s: None,
+        };
         assert_eq!(parse_total(out).unwrap(), rate);
         assert!(parse_total("closest-hit: 10 rays\n").is_err(), "no total line");
-        assert!(parse_total("mitsuba: all x rays, 3 hit, 1 M rays/s").unwrap_err().to_string().contains("\"x\" is not a number"));
+        assert!(
+            parse_total("mitsuba: all x rays, 3 hit, 1 M rays/s")
+                .unwrap_err()
+                .to_string()
+                .contains("\"x\" is not a number")
+        );
     }
 
     /// A stand-in for python3 that checks it was handed the ray file and answers as the script.
@@ -96,12 +118,31 @@ mod tests {
             path.to_str().unwrap().to_owned()
         };
         // $1 is the script, then --scene NAME --any-material --rays FILE: FILE is $6.
-        let answers = fake("python-ok", r#"n=$(( $(wc -c < "$6") / 32 )); echo "mitsuba 3.9.1 llvm_ad_rgb (Embree: True): all $n rays, 1 hit, 2.50 M rays/s""#);
-        let ray = LoggedRay { ray: Ray::new(Vec3::ZERO, Vec3::X), t_max: 1.0, query: RayQuery::Occluded };
+        let answers = fake(
+            "python-ok",
+            r#"n=$(( $(wc -c < "$6") / 32 )); echo "mitsuba 3.9.1 llvm_ad_rgb (Embree: True): all $n rays, 1 hit, 2.50 M rays/s""#,
+        );
+        let ray =
+            LoggedRay { ray: Ray::new(Vec3::ZERO, Vec3::X), t_max: 1.0, query: RayQuery::Occluded };
         let rate = trace(&answers, "cornell-box", &[ray; 3]).unwrap();
-        assert_eq!(rate, EmbreeRate { rays: 3, hits: 1, rays_per_s: 2.5e6, closest_per_s: None, shadow_per_s: None });
-        let fails = fake("python-fails", "echo 'ModuleNotFoundError: No module named mitsuba' >&2; exit 1");
+        assert_eq!(
+            rate,
+            EmbreeRate {
+                rays: 3,
+                hits: 1,
+                rays_per_s: 2.5e6,
+                closest_per_s: None,
+                shadow_per_s: None
+            }
+        );
+        let fails =
+            fake("python-fails", "echo 'ModuleNotFoundError: No module named mitsuba' >&2; exit 1");
         let err = trace(&fails, "cornell-box", &[ray]).unwrap_err().to_string();
-        assert!(err.starts_with("ModuleNotFoundError: No module named mitsuba (needs `pip install mitsuba"), "{err}");
+        assert!(
+            err.starts_with(
+                "ModuleNotFoundError: No module named mitsuba (needs `pip install mitsuba"
+            ),
+            "{err}"
+        );
     }
 }

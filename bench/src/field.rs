@@ -39,10 +39,19 @@ impl Surroundings {
         let at = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
         Surroundings {
             // (+x) × (+z) = −y: the light faces the field …
-            light: [[at(lo, 6.0, lo), at(hi, 6.0, lo), at(lo, 6.0, hi)], [at(hi, 6.0, lo), at(hi, 6.0, hi), at(lo, 6.0, hi)]],
+            light: [
+                [at(lo, 6.0, lo), at(hi, 6.0, lo), at(lo, 6.0, hi)],
+                [at(hi, 6.0, lo), at(hi, 6.0, hi), at(lo, 6.0, hi)],
+            ],
             // … and the ground faces up, so that paths bounce between it and the spheres.
-            ground: [[at(lo, 0.0, lo), at(lo, 0.0, hi), at(hi, 0.0, lo)], [at(hi, 0.0, lo), at(lo, 0.0, hi), at(hi, 0.0, hi)]],
-            camera: look_at(Vec3::new(-0.1 * size, 3.0, -0.1 * size), Vec3::new(0.5 * size, 0.5, 0.5 * size)),
+            ground: [
+                [at(lo, 0.0, lo), at(lo, 0.0, hi), at(hi, 0.0, lo)],
+                [at(hi, 0.0, lo), at(lo, 0.0, hi), at(hi, 0.0, hi)],
+            ],
+            camera: look_at(
+                Vec3::new(-0.1 * size, 3.0, -0.1 * size),
+                Vec3::new(0.5 * size, 0.5, 0.5 * size),
+            ),
         }
     }
 }
@@ -96,14 +105,22 @@ fn glb(spheres: &[[Vec3; 3]], sliding: bool) -> Vec<u8> {
     };
     let rows: Vec<&[[Vec3; 3]]> = spheres.chunks(row).collect();
     let mut bin = Bin::default();
-    let positions: Vec<usize> = rows.iter().chain([&&around.light[..], &&around.ground[..]]).map(|p| bin.positions(p)).collect();
+    let positions: Vec<usize> = rows
+        .iter()
+        .chain([&&around.light[..], &&around.ground[..]])
+        .map(|p| bin.positions(p))
+        .collect();
     let (light, ground) = (positions[rows.len()], positions[rows.len() + 1]);
     let primitive = |accessor: usize, material: usize| json!({"attributes": {"POSITION": accessor}, "material": material});
     let room = [primitive(light, 1), primitive(ground, 0)];
     let (meshes, mut nodes, animations) = match sliding {
         false => {
             let primitives = [primitive(positions[0], 0), room[0].clone(), room[1].clone()];
-            (vec![json!({"name": "field", "primitives": primitives})], vec![json!({"name": "field", "mesh": 0})], vec![])
+            (
+                vec![json!({"name": "field", "primitives": primitives})],
+                vec![json!({"name": "field", "mesh": 0})],
+                vec![],
+            )
         }
         true => {
             let keys: Vec<f32> = (0..=(24.0 * SLIDE_S) as usize).map(|i| i as f32 / 24.0).collect();
@@ -113,11 +130,18 @@ fn glb(spheres: &[[Vec3; 3]], sliding: bool) -> Vec<u8> {
             let nodes: Vec<_> = (0..meshes.len()).map(|m| json!({"mesh": m})).collect();
             let (mut channels, mut samplers) = (Vec::new(), Vec::new());
             for r in 0..rows.len() {
-                let moves: Vec<Vec3> = keys.iter().map(|t| Vec3::X * SLIDE * (PI * t + 0.9 * r as f32).sin()).collect();
+                let moves: Vec<Vec3> = keys
+                    .iter()
+                    .map(|t| Vec3::X * SLIDE * (PI * t + 0.9 * r as f32).sin())
+                    .collect();
                 samplers.push(json!({"input": times, "output": bin.vectors(&moves), "interpolation": "LINEAR"}));
                 channels.push(json!({"sampler": r, "target": {"node": r, "path": "translation"}}));
             }
-            (meshes, nodes, vec![json!({"name": "slide", "channels": channels, "samplers": samplers})])
+            (
+                meshes,
+                nodes,
+                vec![json!({"name": "slide", "channels": channels, "samplers": samplers})],
+            )
         }
     };
     nodes.push(json!({"name": "camera", "camera": 0, "matrix": around.camera.to_cols_array()}));
@@ -163,17 +187,24 @@ impl Bin {
     fn vectors(&mut self, v: &[Vec3]) -> usize {
         let (lo, hi) = corners_box(v.iter());
         let floats: Vec<f32> = v.iter().flat_map(|p| p.to_array()).collect();
-        self.push(&floats, json!({"type": "VEC3", "count": v.len(), "min": lo.to_array(), "max": hi.to_array()}))
+        self.push(
+            &floats,
+            json!({"type": "VEC3", "count": v.len(), "min": lo.to_array(), "max": hi.to_array()}),
+        )
     }
 
     fn scalars(&mut self, v: &[f32]) -> usize {
-        let (lo, hi) = v.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+        let (lo, hi) = v
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)));
         self.push(v, json!({"type": "SCALAR", "count": v.len(), "min": [lo], "max": [hi]}))
     }
 
     fn push(&mut self, floats: &[f32], mut accessor: serde_json::Value) -> usize {
         let index = self.accessors.len();
-        self.views.push(json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": floats.len() * 4}));
+        self.views.push(
+            json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": floats.len() * 4}),
+        );
         self.bytes.extend(floats.iter().flat_map(|x| x.to_le_bytes()));
         accessor["bufferView"] = json!(index);
         accessor["componentType"] = json!(5126);
@@ -186,7 +217,12 @@ impl Bin {
 fn look_at(eye: Vec3, target: Vec3) -> Mat4 {
     let f = (target - eye).normalize();
     let right = f.cross(Vec3::Y).normalize();
-    Mat4::from_cols(right.extend(0.0), right.cross(f).extend(0.0), (-f).extend(0.0), eye.extend(1.0))
+    Mat4::from_cols(
+        right.extend(0.0),
+        right.cross(f).extend(0.0),
+        (-f).extend(0.0),
+        eye.extend(1.0),
+    )
 }
 
 /// The axis-aligned box around the triangles.
@@ -215,13 +251,15 @@ pub fn sphere_field(triangles: usize) -> Vec<[Vec3; 3]> {
     for k in 0..count {
         let centre = Vec3::new((k % n) as f32 * 2.0 + 1.0, 1.0, (k / n) as f32 * 2.0 + 1.0);
         let point = |i: usize, j: usize| {
-            let (theta, phi) = (PI * j as f32 / (SEGMENTS / 2) as f32, 2.0 * PI * i as f32 / SEGMENTS as f32);
+            let (theta, phi) =
+                (PI * j as f32 / (SEGMENTS / 2) as f32, 2.0 * PI * i as f32 / SEGMENTS as f32);
             let r = 0.8 * (1.0 + 0.15 * (5.0 * theta).sin() * (7.0 * phi).sin());
             centre + r * Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin())
         };
         for j in 0..SEGMENTS / 2 {
             for i in 0..SEGMENTS {
-                let (a, b, c, d) = (point(i, j), point(i + 1, j), point(i, j + 1), point(i + 1, j + 1));
+                let (a, b, c, d) =
+                    (point(i, j), point(i + 1, j), point(i, j + 1), point(i + 1, j + 1));
                 // Wound to face outwards: surfaces are black from behind (Conventions, ARCHITECTURE.md).
                 tris.push([a, b, c]);
                 tris.push([b, d, c]);
@@ -242,17 +280,30 @@ mod tests {
         let (mesh, materials, camera) = field_parts(spheres.clone());
         let glb = field_glb(&spheres);
         let parsed = tessera_render::scene::parse(&glb, None).expect("the written field parses");
-        assert_eq!(parsed.effects(), ["area_lights", "lambert"], "purely diffuse, lit by the emitter");
+        assert_eq!(
+            parsed.effects(),
+            ["area_lights", "lambert"],
+            "purely diffuse, lit by the emitter"
+        );
         let scene = parsed.build();
         // Near the origin the loader keeps positions as they are (no rebase), so the triangles
         // are the same bits, in the same order.
         assert_eq!(scene.mesh.positions, mesh.positions);
         assert_eq!(scene.mesh.material, mesh.material);
         // The loader appends its default material (unused here) after the file's.
-        let used = |mats: &[Material]| mats[..2].iter().map(|m| format!("{:?} {}", m.model, m.emission)).collect::<Vec<_>>();
-        assert_eq!(used(&scene.materials), used(&materials), "the same BSDF parameters and emission");
+        let used = |mats: &[Material]| {
+            mats[..2].iter().map(|m| format!("{:?} {}", m.model, m.emission)).collect::<Vec<_>>()
+        };
+        assert_eq!(
+            used(&scene.materials),
+            used(&materials),
+            "the same BSDF parameters and emission"
+        );
         let c = &scene.cameras[0];
-        assert!(c.to_world.abs_diff_eq(camera.to_world, 1e-6) && c.yfov == camera.yfov, "{c:?} vs {camera:?}");
+        assert!(
+            c.to_world.abs_diff_eq(camera.to_world, 1e-6) && c.yfov == camera.yfov,
+            "{c:?} vs {camera:?}"
+        );
     }
 
     /// The sliding field: one animation, and from time t1 to t2 each row of spheres (told by
@@ -262,7 +313,8 @@ mod tests {
     fn the_sliding_field_moves_its_rows_against_each_other() {
         use tessera_render::scene::{Preparation, Sequence};
         let spheres = sphere_field(4 * PER_SPHERE); // two rows of two
-        let seq = Sequence::parse(&sliding_field_glb(&spheres), None).expect("the sliding field parses");
+        let seq =
+            Sequence::parse(&sliding_field_glb(&spheres), None).expect("the sliding field parses");
         let info = seq.animations();
         assert_eq!((info.len(), info[0].name.as_deref(), info[0].channels), (1, Some("slide"), 2));
         assert!((info[0].duration_s - f64::from(SLIDE_S)).abs() < 1e-6);
@@ -282,7 +334,10 @@ mod tests {
                 }
             };
             for (v, w) in p.iter().zip(q) {
-                assert!((*w - (*v + Vec3::X * shift)).abs().max_element() < 1e-5, "triangle {i}: {v} → {w}, not by {shift}");
+                assert!(
+                    (*w - (*v + Vec3::X * shift)).abs().max_element() < 1e-5,
+                    "triangle {i}: {v} → {w}, not by {shift}"
+                );
             }
         }
         assert_eq!(rows, [2 * PER_SPHERE; 2]);

@@ -4,10 +4,10 @@
 //! loopback; they alternate `--repeats` times and the fastest of each is reported, with the
 //! scene preparations the workers reported (full builds, refits, their milliseconds). Affinity
 //! off hands out units in plain frame order, so every worker prepares every frame.
-use tessera_server::client::Coordinator;
-use tessera_server::local::{LocalFarm, with_farm};
 use std::time::Instant;
 use tessera_proto::{FrameRange, Job, JobRequest, JobState};
+use tessera_server::client::Coordinator;
+use tessera_server::local::{LocalFarm, with_farm};
 
 /// What one run measured.
 #[derive(Clone, Debug, Default)]
@@ -53,7 +53,10 @@ pub struct FramesBench {
 pub fn run(b: &FramesBench) -> anyhow::Result<()> {
     tessera_server::purge::for_scene_builders(); // as `tessera render` does
     let rt = tokio::runtime::Runtime::new()?;
-    let (mut on, mut off) = (FramesRun { seconds: f64::INFINITY, ..FramesRun::default() }, FramesRun { seconds: f64::INFINITY, ..FramesRun::default() });
+    let (mut on, mut off) = (
+        FramesRun { seconds: f64::INFINITY, ..FramesRun::default() },
+        FramesRun { seconds: f64::INFINITY, ..FramesRun::default() },
+    );
     for _ in 0..b.repeats.max(1) {
         for affinity in [true, false] {
             let r = rt.block_on(once(b, affinity))?;
@@ -65,11 +68,24 @@ pub fn run(b: &FramesBench) -> anyhow::Result<()> {
     }
     crate::say!(
         "{} frames of {} at {}×{}, {} spp, {} local workers ({} thread{} each), fastest of {}:",
-        b.frames, b.scene, b.size, b.size, b.spp, b.workers, b.threads, if b.threads == 1 { "" } else { "s" }, b.repeats
+        b.frames,
+        b.scene,
+        b.size,
+        b.size,
+        b.spp,
+        b.workers,
+        b.threads,
+        if b.threads == 1 { "" } else { "s" },
+        b.repeats
     );
     for (name, r) in [("affinity on ", &on), ("affinity off", &off)] {
-        let median = if r.refit_ms.is_empty() { String::new() } else { format!(" (a refit's median {:.1} ms)", super::median(&r.refit_ms)) };
-        let peak = r.peak_rss_bytes.map_or(String::new(), |b| format!("; peak resident {} MiB", b >> 20));
+        let median = if r.refit_ms.is_empty() {
+            String::new()
+        } else {
+            format!(" (a refit's median {:.1} ms)", super::median(&r.refit_ms))
+        };
+        let peak =
+            r.peak_rss_bytes.map_or(String::new(), |b| format!("; peak resident {} MiB", b >> 20));
         crate::say!(
             "  {name}: {:.2} s ({:.3} s per frame); scene preparations: {} builds + {} refits = {:.1} ms{median}{peak}",
             r.seconds,
@@ -86,7 +102,8 @@ pub fn run(b: &FramesBench) -> anyhow::Result<()> {
 async fn once(b: &FramesBench, affinity: bool) -> anyhow::Result<FramesRun> {
     let scene = b.scene.clone();
     let scratch = tessera_server::scratch::ScratchDir::new(&format!("bench-frames-{affinity}"));
-    let farm = LocalFarm { worker_threads: vec![b.threads.max(1); b.workers], frame_affinity: affinity };
+    let farm =
+        LocalFarm { worker_threads: vec![b.threads.max(1); b.workers], frame_affinity: affinity };
     let mut request = JobRequest {
         scene: String::new(),
         width: b.size,
@@ -102,7 +119,12 @@ async fn once(b: &FramesBench, affinity: bool) -> anyhow::Result<FramesRun> {
         request.scene = tessera_server::client::scene_ref(&c, &scene).await?;
         let job = c.submit(&request).await?;
         let job: Job = c.wait(&job.id, |_| {}).await?;
-        anyhow::ensure!(job.state == JobState::Done, "job ended {:?}: {:?}", job.state, job.message);
+        anyhow::ensure!(
+            job.state == JobState::Done,
+            "job ended {:?}: {:?}",
+            job.state,
+            job.message
+        );
         Ok((t0.elapsed().as_secs_f64(), job))
     })
     .await;
@@ -112,7 +134,12 @@ async fn once(b: &FramesBench, affinity: bool) -> anyhow::Result<FramesRun> {
         builds: job.frames.iter().map(|f| f.builds).sum(),
         refits: job.frames.iter().map(|f| f.refits).sum(),
         prepare_ms: job.frames.iter().map(|f| f.prepare_ms).sum(),
-        refit_ms: job.frames.iter().filter(|f| f.builds == 0 && f.refits > 0).map(|f| f.prepare_ms / f64::from(f.refits)).collect(),
+        refit_ms: job
+            .frames
+            .iter()
+            .filter(|f| f.builds == 0 && f.refits > 0)
+            .map(|f| f.prepare_ms / f64::from(f.refits))
+            .collect(),
         peak_rss_bytes: job.frames.iter().filter_map(|f| f.worker_peak_rss_bytes).max(),
     })
 }

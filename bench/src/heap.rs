@@ -94,7 +94,11 @@ mod tests {
         // binary do not touch these counters (only `Counting` does).
         let a = Counting(System);
         reset_peak();
-        let (before, big, small) = (live(), Layout::from_size_align(1 << 20, 8).unwrap(), Layout::from_size_align(1000, 8).unwrap());
+        let (before, big, small) = (
+            live(),
+            Layout::from_size_align(1 << 20, 8).unwrap(),
+            Layout::from_size_align(1000, 8).unwrap(),
+        );
         unsafe {
             let p = a.alloc(big);
             let q = a.alloc_zeroed(small);

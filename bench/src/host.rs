@@ -18,7 +18,11 @@ pub fn machine() -> String {
     let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
     let cpu = std::fs::read_to_string("/proc/cpuinfo").ok().and_then(|info| cpu_name(&info));
     let mem = std::fs::read_to_string("/proc/meminfo").ok().and_then(|info| memory_gib(&info));
-    let mut s = format!("{}, {cpus} CPUs, {}", cpu.unwrap_or_else(|| std::env::consts::ARCH.to_string()), vectors());
+    let mut s = format!(
+        "{}, {cpus} CPUs, {}",
+        cpu.unwrap_or_else(|| std::env::consts::ARCH.to_string()),
+        vectors()
+    );
     if let Some(gib) = mem {
         s += &format!(", {gib:.0} GiB");
     }
@@ -38,18 +42,27 @@ pub fn build() -> &'static str {
 /// "model name (x86_64 family F model M)" from the first processor of /proc/cpuinfo.
 fn cpu_name(cpuinfo: &str) -> Option<String> {
     let field = |key: &str| {
-        let line = cpuinfo.lines().find(|l| l.split(':').next().is_some_and(|k| k.trim() == key))?;
+        let line =
+            cpuinfo.lines().find(|l| l.split(':').next().is_some_and(|k| k.trim() == key))?;
         Some(line.split_once(':')?.1.trim().to_string())
     };
     let name = field("model name")?;
     Some(match (field("cpu family"), field("model")) {
-        (Some(family), Some(model)) => format!("{name} ({} family {family} model {model})", std::env::consts::ARCH),
+        (Some(family), Some(model)) => {
+            format!("{name} ({} family {family} model {model})", std::env::consts::ARCH)
+        }
         _ => name,
     })
 }
 
 fn memory_gib(meminfo: &str) -> Option<f64> {
-    let kib: f64 = meminfo.lines().find(|l| l.starts_with("MemTotal:"))?.split_whitespace().nth(1)?.parse().ok()?;
+    let kib: f64 = meminfo
+        .lines()
+        .find(|l| l.starts_with("MemTotal:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()?;
     Some(kib / 1024.0 / 1024.0)
 }
 
@@ -82,13 +95,19 @@ mod tests {
     #[test]
     fn names_the_first_processor_with_its_family_and_model() {
         let arch = std::env::consts::ARCH;
-        assert_eq!(cpu_name(ZEN1).as_deref(), Some(format!("AMD EPYC ({arch} family 23 model 1)").as_str()));
+        assert_eq!(
+            cpu_name(ZEN1).as_deref(),
+            Some(format!("AMD EPYC ({arch} family 23 model 1)").as_str())
+        );
     }
 
     #[test]
     fn model_name_alone_where_family_and_model_are_missing() {
         // ARM kernels have neither "cpu family" nor "model" lines; "model name" is enough.
-        assert_eq!(cpu_name("processor\t: 0\nmodel name\t: ARMv8 Processor\n").as_deref(), Some("ARMv8 Processor"));
+        assert_eq!(
+            cpu_name("processor\t: 0\nmodel name\t: ARMv8 Processor\n").as_deref(),
+            Some("ARMv8 Processor")
+        );
         assert_eq!(cpu_name("processor\t: 0\nBogoMIPS\t: 50.00\n"), None);
     }
 

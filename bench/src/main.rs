@@ -28,12 +28,12 @@
 //!                              Mitsuba 3 in the same run, and the floor under that ratio
 //!                              were every ray traced at Embree's rate and nothing else timed
 //!                              (tessera_bench::mitsuba, speed_floor).
-use tessera_render::tracer::RenderOptions;
 use clap::{Parser, Subcommand};
 use std::time::{Duration, Instant};
 use tessera_proto::{JobRequest, PartialSums, TileRect, WirePixel};
-use tessera_server::bundled;
+use tessera_render::tracer::RenderOptions;
 use tessera_render::tracer::{KernelBits, render_tile};
+use tessera_server::bundled;
 
 #[derive(Parser)]
 #[command(about = "Tessera benchmarks: print figures, assert nothing")]
@@ -121,7 +121,8 @@ enum Cmd {
 /// Wrapped in a counter of the bytes held (`bench::heap`), for the memory `tessera-bench bvh`
 /// reports per phase.
 #[global_allocator]
-static ALLOCATOR: tessera_bench::heap::Counting<mimalloc::MiMalloc> = tessera_bench::heap::Counting(mimalloc::MiMalloc);
+static ALLOCATOR: tessera_bench::heap::Counting<mimalloc::MiMalloc> =
+    tessera_bench::heap::Counting(mimalloc::MiMalloc);
 
 fn main() -> anyhow::Result<()> {
     tessera_bench::heap::installed();
@@ -129,7 +130,9 @@ fn main() -> anyhow::Result<()> {
     tessera_bench::say!("{}", tessera_bench::host::describe());
     match cmd {
         Cmd::Overhead(b) => tessera_bench::overhead::run(&b),
-        Cmd::Roundtrips { seconds, workers, tile, separate_leases, watchers } => roundtrips(seconds, workers, tile, !separate_leases, watchers),
+        Cmd::Roundtrips { seconds, workers, tile, separate_leases, watchers } => {
+            roundtrips(seconds, workers, tile, !separate_leases, watchers)
+        }
         Cmd::Effects { scene, size, spp, repeats } => effects(&scene, size, spp, repeats),
         Cmd::Accuracy(options) => tessera_bench::accuracy::run(options).map(|_| ()),
         Cmd::Field { triangles, output, sliding } => write_field(triangles, &output, sliding),
@@ -142,28 +145,58 @@ fn main() -> anyhow::Result<()> {
 fn effects(scene_name: &str, size: u32, spp: u32, repeats: u32) -> anyhow::Result<()> {
     let scene = bundled::load(scene_name)?;
     let settings = tessera_bench::overhead::settings(size)?;
-    let gated_bits = scene.effects_for(scene.camera(None).map_err(anyhow::Error::msg)?, settings.background).kernel();
-    let kernels = [("gated", None), ("matte only", Some(KernelBits::MATTE)), ("all effects on", Some(KernelBits::ALL))];
+    let gated_bits = scene
+        .effects_for(scene.camera(None).map_err(anyhow::Error::msg)?, settings.background)
+        .kernel();
+    let kernels = [
+        ("gated", None),
+        ("matte only", Some(KernelBits::MATTE)),
+        ("all effects on", Some(KernelBits::ALL)),
+    ];
     let mut best = [f64::INFINITY; 3];
     for _ in 0..repeats {
         // Interleaved so that machine load drifts hit all three alike.
         for (k, (_, bits)) in kernels.iter().enumerate() {
             let t = Instant::now();
-            render_tile(&scene, &settings, settings.full_frame(), 0..spp, &RenderOptions { kernel: *bits, ..RenderOptions::default() }).map_err(anyhow::Error::msg)?;
+            render_tile(
+                &scene,
+                &settings,
+                settings.full_frame(),
+                0..spp,
+                &RenderOptions { kernel: *bits, ..RenderOptions::default() },
+            )
+            .map_err(anyhow::Error::msg)?;
             best[k] = best[k].min(t.elapsed().as_secs_f64());
         }
     }
     let samples = size as f64 * size as f64 * spp as f64;
-    tessera_bench::say!("effects: {scene_name} {size}x{size} {spp} spp, effects {:?}, gated kernel bits {:#06b}, fastest of {repeats}", scene.effects.names(), gated_bits.0);
+    tessera_bench::say!(
+        "effects: {scene_name} {size}x{size} {spp} spp, effects {:?}, gated kernel bits {:#06b}, fastest of {repeats}",
+        scene.effects.names(),
+        gated_bits.0
+    );
     for (k, (name, _)) in kernels.iter().enumerate() {
-        tessera_bench::say!("  {name:<15} {:8.3} s  {:>10.0} samples/s  {:+6.2} % vs matte", best[k], samples / best[k], (best[k] / best[1] - 1.0) * 100.0);
+        tessera_bench::say!(
+            "  {name:<15} {:8.3} s  {:>10.0} samples/s  {:+6.2} % vs matte",
+            best[k],
+            samples / best[k],
+            (best[k] / best[1] - 1.0) * 100.0
+        );
     }
     Ok(())
 }
 
-fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool, watchers: usize) -> anyhow::Result<()> {
+fn roundtrips(
+    seconds: f64,
+    workers: usize,
+    tile: u32,
+    next_with_result: bool,
+    watchers: usize,
+) -> anyhow::Result<()> {
     let scratch = tessera_server::scratch::ScratchDir::new("bench-rt");
-    let state = tessera_server::state::AppState::new(tessera_server::state::Config::new(scratch.path().to_path_buf()))?;
+    let state = tessera_server::state::AppState::new(tessera_server::state::Config::new(
+        scratch.path().to_path_buf(),
+    ))?;
     let std_listener = std::net::TcpListener::bind("127.0.0.1:0")?;
     std_listener.set_nonblocking(true)?;
     let url = format!("http://{}", std_listener.local_addr()?);
@@ -171,7 +204,8 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool, w
     // The coordinator gets one core: a current-thread runtime on its own OS thread, named so a
     // profile (`perf report --comm coordinator`) can tell it from the fake workers.
     std::thread::Builder::new().name("coordinator".into()).spawn(move || {
-        let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().expect("runtime");
+        let rt =
+            tokio::runtime::Builder::new_current_thread().enable_all().build().expect("runtime");
         rt.block_on(async move {
             let listener = tokio::net::TcpListener::from_std(std_listener).expect("listener");
             let _ = tessera_server::app::run(listener, server_state, std::future::pending()).await;
@@ -181,14 +215,32 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool, w
     let (units, elapsed, events) = rt.block_on(async {
         let http = reqwest::Client::new();
         let size = tile * 16;
-        let req = JobRequest { scene: "furnace".into(), width: size, height: size, spp: Some(1 << 20), tile_size: Some(tile), batch_spp: Some(1), ..JobRequest::default() };
-        let job: tessera_proto::Job = http.post(format!("{url}/v1/jobs")).json(&req).send().await?.error_for_status()?.json().await?;
+        let req = JobRequest {
+            scene: "furnace".into(),
+            width: size,
+            height: size,
+            spp: Some(1 << 20),
+            tile_size: Some(tile),
+            batch_spp: Some(1),
+            ..JobRequest::default()
+        };
+        let job: tessera_proto::Job = http
+            .post(format!("{url}/v1/jobs"))
+            .json(&req)
+            .send()
+            .await?
+            .error_for_status()?
+            .json()
+            .await?;
         let template = PartialSums {
             tile: TileRect { x0: 0, y0: 0, w: tile, h: tile },
             samples: [0, 1],
             dropped: 0,
             max_weight: 1.0,
-            pixels: vec![WirePixel { sum: [0.5; 3], sum_sq: [0.25; 3], sum_lum_sq: 0.25, count: 1 }; (tile * tile) as usize],
+            pixels: vec![
+                WirePixel { sum: [0.5; 3], sum_sq: [0.25; 3], sum_lum_sq: 0.25, count: 1 };
+                (tile * tile) as usize
+            ],
         }
         .encode();
         let deadline = Instant::now() + Duration::from_secs_f64(seconds);
@@ -196,10 +248,14 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool, w
         let tasks: Vec<_> = (0..workers)
             .map(|i| {
                 let (http, url, template) = (http.clone(), url.clone(), template.clone());
-                tokio::spawn(async move { fake_worker(i, http, url, template, deadline, next_with_result).await })
+                tokio::spawn(async move {
+                    fake_worker(i, http, url, template, deadline, next_with_result).await
+                })
             })
             .collect();
-        let watching: Vec<_> = (0..watchers).map(|_| tokio::spawn(watch(url.clone(), job.id.clone(), deadline))).collect();
+        let watching: Vec<_> = (0..watchers)
+            .map(|_| tokio::spawn(watch(url.clone(), job.id.clone(), deadline)))
+            .collect();
         let mut total = 0u64;
         for t in tasks {
             total += t.await??;
@@ -212,12 +268,26 @@ fn roundtrips(seconds: f64, workers: usize, tile: u32, next_with_result: bool, w
         anyhow::Ok((total, elapsed, events))
     })?;
     let merge_ns = state.counters.merge_nanos.load(std::sync::atomic::Ordering::Relaxed) as f64;
-    let leases = if next_with_result { "the next lease in each result's answer" } else { "a lease request per unit" };
-    tessera_bench::say!("roundtrips: {workers} fake workers, {tile}x{tile} tiles, 1 spp units, {leases}, coordinator on one core");
-    tessera_bench::say!("  {units} units in {elapsed:.2} s = {:.0} unit round trips/s", units as f64 / elapsed);
-    tessera_bench::say!("  merge cost {:.1} µs per unit (decode excluded)", merge_ns / units.max(1) as f64 / 1000.0);
+    let leases = if next_with_result {
+        "the next lease in each result's answer"
+    } else {
+        "a lease request per unit"
+    };
+    tessera_bench::say!(
+        "roundtrips: {workers} fake workers, {tile}x{tile} tiles, 1 spp units, {leases}, coordinator on one core"
+    );
+    tessera_bench::say!(
+        "  {units} units in {elapsed:.2} s = {:.0} unit round trips/s",
+        units as f64 / elapsed
+    );
+    tessera_bench::say!(
+        "  merge cost {:.1} µs per unit (decode excluded)",
+        merge_ns / units.max(1) as f64 / 1000.0
+    );
     if watchers > 0 {
-        tessera_bench::say!("  {watchers} clients followed the job's events: {events} statuses received in all");
+        tessera_bench::say!(
+            "  {watchers} clients followed the job's events: {events} statuses received in all"
+        );
     }
     Ok(())
 }
@@ -228,7 +298,8 @@ async fn watch(url: String, id: String, deadline: Instant) -> anyhow::Result<u64
     let coordinator = tessera_server::client::Coordinator::new(&url, None);
     let mut events = 0;
     let until = tokio::time::Instant::from_std(deadline);
-    if let Ok(ended) = tokio::time::timeout_at(until, coordinator.wait(&id, |_| events += 1)).await {
+    if let Ok(ended) = tokio::time::timeout_at(until, coordinator.wait(&id, |_| events += 1)).await
+    {
         ended?;
     }
     Ok(events)
@@ -236,16 +307,36 @@ async fn watch(url: String, id: String, deadline: Instant) -> anyhow::Result<u64
 
 /// Leases units and returns ready-made results for them until the deadline; returns units merged.
 /// With `next_with_result`, each result asks for the next lease, as workers do.
-async fn fake_worker(i: usize, http: reqwest::Client, url: String, template: Vec<u8>, deadline: Instant, next_with_result: bool) -> anyhow::Result<u64> {
-    let reg: tessera_proto::Registration =
-        http.post(format!("{url}/v1/workers")).json(&tessera_proto::WorkerHello { name: format!("fake{i}"), threads: 1, renderer: tessera_render::renderer_id().to_owned() }).send().await?.json().await?;
+async fn fake_worker(
+    i: usize,
+    http: reqwest::Client,
+    url: String,
+    template: Vec<u8>,
+    deadline: Instant,
+    next_with_result: bool,
+) -> anyhow::Result<u64> {
+    let reg: tessera_proto::Registration = http
+        .post(format!("{url}/v1/workers"))
+        .json(&tessera_proto::WorkerHello {
+            name: format!("fake{i}"),
+            threads: 1,
+            renderer: tessera_render::renderer_id().to_owned(),
+        })
+        .send()
+        .await?
+        .json()
+        .await?;
     let mut done = 0;
     let mut next: Option<tessera_proto::Lease> = None;
     while Instant::now() < deadline {
         let lease = match next.take() {
             Some(l) => l,
             None => {
-                let resp = http.post(format!("{url}/v1/leases")).json(&tessera_proto::LeaseRequest { worker_id: reg.worker_id.clone() }).send().await?;
+                let resp = http
+                    .post(format!("{url}/v1/leases"))
+                    .json(&tessera_proto::LeaseRequest { worker_id: reg.worker_id.clone() })
+                    .send()
+                    .await?;
                 if resp.status() == reqwest::StatusCode::NO_CONTENT {
                     continue;
                 }
@@ -258,7 +349,12 @@ async fn fake_worker(i: usize, http: reqwest::Client, url: String, template: Vec
         body[24..28].copy_from_slice(&lease.samples[0].to_le_bytes());
         body[28..32].copy_from_slice(&lease.samples[1].to_le_bytes());
         let query = if next_with_result { "?next=true" } else { "" };
-        let r = http.put(format!("{url}/v1/leases/{}/result{query}", lease.lease_id)).header("content-type", tessera_proto::sums::CONTENT_TYPE).body(body).send().await?;
+        let r = http
+            .put(format!("{url}/v1/leases/{}/result{query}", lease.lease_id))
+            .header("content-type", tessera_proto::sums::CONTENT_TYPE)
+            .body(body)
+            .send()
+            .await?;
         match r.status() {
             reqwest::StatusCode::NO_CONTENT => {}
             reqwest::StatusCode::OK => next = Some(r.json().await?),
@@ -273,7 +369,13 @@ fn write_field(triangles: usize, output: &std::path::Path, sliding: bool) -> any
     use tessera_bench::field;
     let spheres = field::sphere_field(triangles);
     let glb = if sliding { field::sliding_field_glb(&spheres) } else { field::field_glb(&spheres) };
-    std::fs::write(output, &glb).map_err(|e| anyhow::anyhow!("writing {}: {e}", output.display()))?;
-    tessera_bench::say!("{}: {} triangles (the spheres, a ground and a light), {:.1} MiB", output.display(), spheres.len() + 4, glb.len() as f64 / f64::from(1 << 20));
+    std::fs::write(output, &glb)
+        .map_err(|e| anyhow::anyhow!("writing {}: {e}", output.display()))?;
+    tessera_bench::say!(
+        "{}: {} triangles (the spheres, a ground and a light), {:.1} MiB",
+        output.display(),
+        spheres.len() + 4,
+        glb.len() as f64 / f64::from(1 << 20)
+    );
     Ok(())
 }

@@ -23,12 +23,12 @@
 //!   ratio were Tessera's time only its rays, traced at Embree's rate.
 //!
 //! Without Mitsuba the command renders Tessera's side and says how to install it.
-use tessera_render::tracer::RenderOptions;
 use super::accuracy::measure::rel_mse;
 use super::accuracy::reference::{self, Reference};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
+use tessera_render::tracer::RenderOptions;
 use tessera_render::tracer::integrator::{DEFAULT_ROULETTE_DEPTH, PathSettings, Roulette};
 use tessera_render::tracer::sampler::SamplerKind;
 use tessera_render::tracer::{PixelSums, RenderSettings, Scene, render_tile};
@@ -48,7 +48,11 @@ pub struct MitsubaBench {
     #[arg(long, default_value_t = 8192)]
     pub reference_spp: u32,
     /// Mitsuba samplers to try, comma-separated (the best is the yardstick).
-    #[arg(long, value_delimiter = ',', default_value = "independent,stratified,multijitter,ldsampler")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "independent,stratified,multijitter,ldsampler"
+    )]
     pub samplers: Vec<String>,
     /// Mitsuba variant.
     #[arg(long, default_value = "llvm_ad_rgb")]
@@ -113,7 +117,10 @@ impl std::error::Error for Untranslatable {}
 
 /// Every scene's rows, Tessera's and (where it ran) Mitsuba's.
 pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
-    anyhow::ensure!(b.size > 0 && b.repeats > 0 && b.reference_spp > 0 && !b.spp.contains(&0), "sizes, spp and repeats must be positive");
+    anyhow::ensure!(
+        b.size > 0 && b.repeats > 0 && b.reference_spp > 0 && !b.spp.contains(&0),
+        "sizes, spp and repeats must be positive"
+    );
     anyhow::ensure!(!b.roulette_depth.is_empty(), "give at least one --roulette-depth");
     anyhow::ensure!(!b.scene.is_empty(), "give at least one --scene");
     let mut rows = Vec::new();
@@ -127,9 +134,22 @@ pub fn run(b: &MitsubaBench) -> anyhow::Result<Vec<Row>> {
 }
 
 fn run_scene(b: &MitsubaBench, name: &str) -> anyhow::Result<Vec<Row>> {
-    let bytes = tessera_server::bundled::get(name).ok_or_else(|| anyhow::anyhow!("no bundled scene {name:?}; bundled: {}", tessera_server::bundled::names().join(", ")))?;
+    let bytes = tessera_server::bundled::get(name).ok_or_else(|| {
+        anyhow::anyhow!(
+            "no bundled scene {name:?}; bundled: {}",
+            tessera_server::bundled::names().join(", ")
+        )
+    })?;
     let scene = tessera_render::scene::load_bytes(bytes, None)?;
-    let reference = reference::rendered_with(&scene, bytes, name, b.size, b.reference_spp, SamplerKind::Independent, &b.cache)?;
+    let reference = reference::rendered_with(
+        &scene,
+        bytes,
+        name,
+        b.size,
+        b.reference_spp,
+        SamplerKind::Independent,
+        &b.cache,
+    )?;
     let mut skip_mitsuba = b.skip_mitsuba;
     crate::say!(
         "time to quality: {name} {0}×{0}, {1} threads; reference {2} (its noise, relMSE {3:.2e}, subtracted)",
@@ -193,8 +213,14 @@ fn print_row(r: &Row) {
 }
 
 /// The lowest relMSE·s of `renderer` among `rows` at `spp`.
-pub(super) fn best<'r>(rows: impl IntoIterator<Item = &'r Row>, renderer: &str, spp: u32) -> Option<&'r Row> {
-    rows.into_iter().filter(|r| r.renderer == renderer && r.spp == spp).min_by(|a, b| a.product().total_cmp(&b.product()))
+pub(super) fn best<'r>(
+    rows: impl IntoIterator<Item = &'r Row>,
+    renderer: &str,
+    spp: u32,
+) -> Option<&'r Row> {
+    rows.into_iter()
+        .filter(|r| r.renderer == renderer && r.spp == spp)
+        .min_by(|a, b| a.product().total_cmp(&b.product()))
 }
 
 /// Prints Tessera's best relMSE·s over Mitsuba's at `spp` and returns it, if both rendered.
@@ -214,7 +240,15 @@ fn print_ratio(rows: &[Row], spp: u32) -> Option<f64> {
     Some(ratio)
 }
 
-fn tessera_row(scene: &Scene, name: &str, reference: &Reference, b: &MitsubaBench, spp: u32, sampler: SamplerKind, depth: u32) -> anyhow::Result<Row> {
+fn tessera_row(
+    scene: &Scene,
+    name: &str,
+    reference: &Reference,
+    b: &MitsubaBench,
+    spp: u32,
+    sampler: SamplerKind,
+    depth: u32,
+) -> anyhow::Result<Row> {
     let (mut seconds, mut error, mut rays) = (f64::INFINITY, 0.0, 0);
     for r in 0..b.repeats {
         let settings = RenderSettings {
@@ -227,32 +261,61 @@ fn tessera_row(scene: &Scene, name: &str, reference: &Reference, b: &MitsubaBenc
             camera: None,
         };
         let t = Instant::now();
-        let sums = render_tile(scene, &settings, settings.full_frame(), 0..spp, &RenderOptions::default()).map_err(anyhow::Error::msg)?;
+        let sums =
+            render_tile(scene, &settings, settings.full_frame(), 0..spp, &RenderOptions::default())
+                .map_err(anyhow::Error::msg)?;
         seconds = seconds.min(t.elapsed().as_secs_f64());
         rays = sums.rays;
         error += rel_mse_above_reference(sums.pixels.iter().map(PixelSums::mean), reference);
     }
     let rays_per_s = Some(rays as f64 / seconds);
     // With one roulette depth the label stays the sampler's name, as the ratio lines print it.
-    let label = if b.roulette_depth.len() > 1 { format!("{} rr{depth}", sampler.name()) } else { sampler.name().into() };
-    Ok(Row { scene: name.into(), renderer: "tessera", rays_per_s, sampler: label, spp, seconds, rel_mse: error / b.repeats as f64 })
+    let label = if b.roulette_depth.len() > 1 {
+        format!("{} rr{depth}", sampler.name())
+    } else {
+        sampler.name().into()
+    };
+    Ok(Row {
+        scene: name.into(),
+        renderer: "tessera",
+        rays_per_s,
+        sampler: label,
+        spp,
+        seconds,
+        rel_mse: error / b.repeats as f64,
+    })
 }
 
 /// relMSE with the reference's own expected share removed: E[(x − r)²] = E[(x − μ)²] + Var(r)
 /// for a reference r independent of x, so the reference's noise floor (the same terms, same
 /// weights) is subtracted from the plain relMSE.
-pub fn rel_mse_above_reference(means: impl Iterator<Item = [f64; 3]>, reference: &Reference) -> f64 {
+pub fn rel_mse_above_reference(
+    means: impl Iterator<Item = [f64; 3]>,
+    reference: &Reference,
+) -> f64 {
     rel_mse(means, &reference.means) - reference.noise_floor()
 }
 
 /// Runs the Mitsuba script at `spp` for every sampler and reads back its images.
-fn mitsuba_rows(name: &str, reference: &Reference, b: &MitsubaBench, spp: u32) -> anyhow::Result<Vec<Row>> {
+fn mitsuba_rows(
+    name: &str,
+    reference: &Reference,
+    b: &MitsubaBench,
+    spp: u32,
+) -> anyhow::Result<Vec<Row>> {
     let scratch = tessera_server::scratch::ScratchDir::new("bench-mitsuba");
     let out_dir = scratch.path();
     let mut cmd = python_script(&b.python, "mitsuba_render.py")?;
     cmd.args(["--scene", name])
         .args(["--variant", &b.variant, "--size", &b.size.to_string(), "--spp", &spp.to_string()])
-        .args(["--samplers", &b.samplers.join(","), "--repeats", &b.repeats.to_string(), "--seed", "1"])
+        .args([
+            "--samplers",
+            &b.samplers.join(","),
+            "--repeats",
+            &b.repeats.to_string(),
+            "--seed",
+            "1",
+        ])
         .arg("--out-dir")
         .arg(out_dir);
     let output = cmd.output().map_err(|e| anyhow::anyhow!("cannot start {}: {e}", b.python))?;
@@ -267,17 +330,35 @@ fn mitsuba_rows(name: &str, reference: &Reference, b: &MitsubaBench, spp: u32) -
     }
     let mut rows: Vec<Row> = Vec::new();
     for line in stdout.lines().filter(|l| l.starts_with("render ")) {
-        let field = |k: &str| line.split(' ').find_map(|f| f.strip_prefix(k)).ok_or_else(|| anyhow::anyhow!("no {k} in {line:?}"));
-        let (sampler, seconds, out) = (field("sampler=")?, field("seconds=")?.parse::<f64>()?, field("out=")?);
+        let field = |k: &str| {
+            line.split(' ')
+                .find_map(|f| f.strip_prefix(k))
+                .ok_or_else(|| anyhow::anyhow!("no {k} in {line:?}"))
+        };
+        let (sampler, seconds, out) =
+            (field("sampler=")?, field("seconds=")?.parse::<f64>()?, field("out=")?);
         let (image, _) = tessera_server::output::decode_exr(&std::fs::read(out)?)?;
-        anyhow::ensure!(image.width == b.size as usize && image.height == b.size as usize, "Mitsuba wrote a {}×{} image", image.width, image.height);
+        anyhow::ensure!(
+            image.width == b.size as usize && image.height == b.size as usize,
+            "Mitsuba wrote a {}×{} image",
+            image.width,
+            image.height
+        );
         let error = rel_mse_above_reference(image.rgb.iter().map(|p| p.map(f64::from)), reference);
         match rows.iter_mut().find(|r| r.sampler == sampler) {
             Some(row) => {
                 row.seconds = row.seconds.min(seconds);
                 row.rel_mse += error;
             }
-            None => rows.push(Row { scene: name.into(), renderer: "mitsuba", rays_per_s: None, sampler: sampler.into(), spp, seconds, rel_mse: error }),
+            None => rows.push(Row {
+                scene: name.into(),
+                renderer: "mitsuba",
+                rays_per_s: None,
+                sampler: sampler.into(),
+                spp,
+                seconds,
+                rel_mse: error,
+            }),
         }
     }
     rows.iter_mut().for_each(|r| r.rel_mse /= b.repeats as f64);

@@ -23,27 +23,37 @@ fn ratio(rows: &[Row], scene: &str, spp: u32) -> Option<f64> {
 
 /// The geometric mean of `values`, None if there are none.
 pub fn geometric_mean(values: &[f64]) -> Option<f64> {
-    (!values.is_empty()).then(|| (values.iter().map(|v| v.ln()).sum::<f64>() / values.len() as f64).exp())
+    (!values.is_empty())
+        .then(|| (values.iter().map(|v| v.ln()).sum::<f64>() / values.len() as f64).exp())
 }
 
 /// Prints each scene's ratio at each spp and their geometric mean.
 pub fn print_summary(rows: &[Row], scenes: &[String], spp: &[u32]) {
     let header: Vec<String> = spp.iter().map(|s| format!("{s:>9} spp")).collect();
-    crate::say!("\ntime to quality, Tessera's best relMSE·s ÷ Mitsuba 3's best (below 1: Tessera sooner)");
+    crate::say!(
+        "\ntime to quality, Tessera's best relMSE·s ÷ Mitsuba 3's best (below 1: Tessera sooner)"
+    );
     crate::say!("  {:<22}{}", "scene", header.join(""));
     for scene in scenes {
-        let cells: Vec<String> = spp.iter().map(|&s| ratio(rows, scene, s).map_or(format!("{:>13}", "—"), |r| format!("{r:>13.3}"))).collect();
+        let cells: Vec<String> = spp
+            .iter()
+            .map(|&s| {
+                ratio(rows, scene, s).map_or(format!("{:>13}", "—"), |r| format!("{r:>13.3}"))
+            })
+            .collect();
         let alone = if cells.iter().all(|c| c.trim() == "—") { "  (Tessera alone)" } else { "" };
         crate::say!("  {:<22}{}{alone}", scene, cells.join(""));
     }
     let means: Vec<String> = spp
         .iter()
         .map(|&s| {
-            let ratios: Vec<f64> = scenes.iter().filter_map(|scene| ratio(rows, scene, s)).collect();
+            let ratios: Vec<f64> =
+                scenes.iter().filter_map(|scene| ratio(rows, scene, s)).collect();
             geometric_mean(&ratios).map_or(format!("{:>13}", "—"), |g| format!("{g:>13.3}"))
         })
         .collect();
-    let counted = scenes.iter().filter(|scene| spp.iter().any(|&s| ratio(rows, scene, s).is_some())).count();
+    let counted =
+        scenes.iter().filter(|scene| spp.iter().any(|&s| ratio(rows, scene, s).is_some())).count();
     crate::say!("  {:<22}{}", format!("geometric mean ({counted})"), means.join(""));
 }
 
@@ -52,7 +62,15 @@ mod tests {
     use super::*;
 
     fn row(scene: &str, renderer: &'static str, spp: u32, seconds: f64, rel_mse: f64) -> Row {
-        Row { scene: scene.into(), renderer, rays_per_s: None, sampler: "s".into(), spp, seconds, rel_mse }
+        Row {
+            scene: scene.into(),
+            renderer,
+            rays_per_s: None,
+            sampler: "s".into(),
+            spp,
+            seconds,
+            rel_mse,
+        }
     }
 
     #[test]

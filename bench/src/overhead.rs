@@ -14,15 +14,15 @@
 //! `busy`), and each thread's CPU time (the render threads against all the others).
 use super::cpu::{cpu_seconds, cpu_since, threads_cpu};
 use super::median;
-use tessera_server::bundled;
-use tessera_server::local::{LocalFarm, with_farm_reports};
 use std::sync::Arc;
 use std::time::Instant;
 use tessera_proto::JobRequest;
-use tessera_worker::client::render_settings;
-use tessera_server::image;
-use tessera_server::output::encode_exr;
 use tessera_render::tracer::{PixelSums, RenderSettings, RowQueue, Scene, Tile};
+use tessera_server::bundled;
+use tessera_server::image;
+use tessera_server::local::{LocalFarm, with_farm_reports};
+use tessera_server::output::encode_exr;
+use tessera_worker::client::render_settings;
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct OverheadBench {
@@ -74,7 +74,8 @@ pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
     let scene = Arc::new(bundled::load(&b.scene)?);
     let settings = settings(b.size)?;
     let rt = tokio::runtime::Runtime::new()?;
-    let (mut alone, mut encodes, mut alone_cpu, mut farm) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut alone, mut encodes, mut alone_cpu, mut farm) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for r in 0..b.repeats.max(1) {
         let farm_first = r % 2 == 1;
         if farm_first {
@@ -130,7 +131,8 @@ pub fn run(b: &OverheadBench) -> anyhow::Result<()> {
         median(&farm.iter().map(|f| f.other_cpu).collect::<Vec<_>>()),
         median(&shares) * 100.0
     );
-    let render_vs_alone: Vec<f64> = farm.iter().zip(&alone_cpu).map(|(f, a)| f.render_cpu / a).collect();
+    let render_vs_alone: Vec<f64> =
+        farm.iter().zip(&alone_cpu).map(|(f, a)| f.render_cpu / a).collect();
     crate::say!(
         "  the farm's render threads against the whole tracer-alone run, CPU: median per-pair ratio {:+.2} % (the same work; what differs is the threads' surroundings)",
         (median(&render_vs_alone) - 1.0) * 100.0
@@ -146,22 +148,54 @@ fn report(b: &OverheadBench, alone: &[f64], farm: &[FarmRun]) {
     let (fast_a, fast_f) = (min(alone), min(&totals));
     let (med_a, med_f) = (median(alone), median(&totals));
     let samples = f64::from(b.size) * f64::from(b.size) * f64::from(b.spp);
-    crate::say!("overhead: {} {}x{} {} spp, units {TILE}x{TILE}x{}, {n} pairs (alone/farm interleaved)", b.scene, b.size, b.size, b.spp, b.batch_spp);
+    crate::say!(
+        "overhead: {} {}x{} {} spp, units {TILE}x{TILE}x{}, {n} pairs (alone/farm interleaved)",
+        b.scene,
+        b.size,
+        b.size,
+        b.spp,
+        b.batch_spp
+    );
     crate::say!("                          fastest     median");
-    crate::say!("  tracer alone           {fast_a:8.3} s {med_a:8.3} s  {:>10.0} samples/s (fastest; incl. merging the units and the EXR encode)", samples / fast_a);
-    crate::say!("  coordinator + 1 worker {fast_f:8.3} s {med_f:8.3} s  {:>10.0} samples/s (fastest; incl. scene load, EXR encode and download)", samples / fast_f);
-    crate::say!("  overhead               {:+7.2} %  {:+7.2} %", pct(fast_f / fast_a), pct(med_f / med_a));
-    crate::say!("  overhead, median of the per-pair ratios {:+6.2} %  (pairs: {})", pct(median(&ratios)), list(&ratios, |r| format!("{:+.1}", pct(r))));
+    crate::say!(
+        "  tracer alone           {fast_a:8.3} s {med_a:8.3} s  {:>10.0} samples/s (fastest; incl. merging the units and the EXR encode)",
+        samples / fast_a
+    );
+    crate::say!(
+        "  coordinator + 1 worker {fast_f:8.3} s {med_f:8.3} s  {:>10.0} samples/s (fastest; incl. scene load, EXR encode and download)",
+        samples / fast_f
+    );
+    crate::say!(
+        "  overhead               {:+7.2} %  {:+7.2} %",
+        pct(fast_f / fast_a),
+        pct(med_f / med_a)
+    );
+    crate::say!(
+        "  overhead, median of the per-pair ratios {:+6.2} %  (pairs: {})",
+        pct(median(&ratios)),
+        list(&ratios, |r| format!("{:+.1}", pct(r)))
+    );
     match median_interval(&ratios) {
-        Some((lo, hi, level)) => crate::say!("  the median's {:.0} % confidence interval (order statistics, no assumption on the noise): {:+.2} % … {:+.2} %", level * 100.0, pct(lo), pct(hi)),
+        Some((lo, hi, level)) => crate::say!(
+            "  the median's {:.0} % confidence interval (order statistics, no assumption on the noise): {:+.2} % … {:+.2} %",
+            level * 100.0,
+            pct(lo),
+            pct(hi)
+        ),
         None => crate::say!("  (6 or more pairs give a confidence interval for the median)"),
     }
     // Within-run accounting, medians over the farm runs.
     let med = |f: fn(&FarmRun) -> f64| median(&farm.iter().map(f).collect::<Vec<_>>());
     let idle = med(|f| f.job - f.busy);
     let fixed = med(|f| f.total - f.job);
-    crate::say!("  farm run breakdown (medians): worker idle in the job {:.3} s = {:.2} % of the job; fixed costs (start, EXR, stop) {fixed:.3} s = {:.2} % of the run; render busy {:.3} s vs alone {med_a:.3} s, its EXR included ({:+.2} %)",
-        idle, med(|f| (f.job - f.busy) / f.job) * 100.0, med(|f| (f.total - f.job) / f.total) * 100.0, med(|f| f.busy), pct(med(|f| f.busy) / med_a));
+    crate::say!(
+        "  farm run breakdown (medians): worker idle in the job {:.3} s = {:.2} % of the job; fixed costs (start, EXR, stop) {fixed:.3} s = {:.2} % of the run; render busy {:.3} s vs alone {med_a:.3} s, its EXR included ({:+.2} %)",
+        idle,
+        med(|f| (f.job - f.busy) / f.job) * 100.0,
+        med(|f| (f.total - f.job) / f.total) * 100.0,
+        med(|f| f.busy),
+        pct(med(|f| f.busy) / med_a)
+    );
 }
 
 /// A distribution-free interval for the median of `v`: the k-th smallest and k-th largest
@@ -211,7 +245,11 @@ pub fn settings(size: u32) -> anyhow::Result<RenderSettings> {
 
 /// The tracer alone, unit by unit in the farm's order (batches outer, tiles inner), merged into
 /// a frame and encoded as the same EXR layers the farm delivers; seconds in all and of the encode.
-fn alone_run(scene: &Arc<Scene>, settings: &RenderSettings, b: &OverheadBench) -> anyhow::Result<(f64, f64)> {
+fn alone_run(
+    scene: &Arc<Scene>,
+    settings: &RenderSettings,
+    b: &OverheadBench,
+) -> anyhow::Result<(f64, f64)> {
     let (size, spp, batch) = (b.size, b.spp, b.batch_spp);
     let t = Instant::now();
     let mut units = Vec::new();
@@ -220,7 +258,10 @@ fn alone_run(scene: &Arc<Scene>, settings: &RenderSettings, b: &OverheadBench) -
             for x0 in (0..size).step_by(TILE as usize) {
                 let tile = Tile { x0, y0, w: TILE.min(size - x0), h: TILE.min(size - y0) };
                 let samples = k * batch..((k + 1) * batch).min(spp);
-                units.push(RowQueue::new(scene.clone(), settings.clone(), tile, samples).map_err(anyhow::Error::msg)?);
+                units.push(
+                    RowQueue::new(scene.clone(), settings.clone(), tile, samples)
+                        .map_err(anyhow::Error::msg)?,
+                );
             }
         }
     }
@@ -258,21 +299,24 @@ fn farm_run(rt: &tokio::runtime::Runtime, b: &OverheadBench, r: u32) -> anyhow::
         ..JobRequest::default()
     };
     let (t, cpu) = (Instant::now(), cpu_seconds());
-    let (phases, reports) = rt.block_on(with_farm_reports(scratch.path(), LocalFarm::default(), |c| async move {
-        let up = t.elapsed().as_secs_f64();
-        let before = threads_cpu();
-        let j = c.submit(&req).await?;
-        let done = c.wait(&j.id, |_| {}).await?;
-        let seen = t.elapsed().as_secs_f64();
-        c.bytes(&format!("/v1/jobs/{}/image.exr", j.id)).await?;
-        let threads = cpu_since(&before, &threads_cpu());
-        anyhow::Ok((up, done.elapsed_s, seen, t.elapsed().as_secs_f64(), threads))
-    }))?;
+    let (phases, reports) =
+        rt.block_on(with_farm_reports(scratch.path(), LocalFarm::default(), |c| async move {
+            let up = t.elapsed().as_secs_f64();
+            let before = threads_cpu();
+            let j = c.submit(&req).await?;
+            let done = c.wait(&j.id, |_| {}).await?;
+            let seen = t.elapsed().as_secs_f64();
+            c.bytes(&format!("/v1/jobs/{}/image.exr", j.id)).await?;
+            let threads = cpu_since(&before, &threads_cpu());
+            anyhow::Ok((up, done.elapsed_s, seen, t.elapsed().as_secs_f64(), threads))
+        }))?;
     let total = t.elapsed().as_secs_f64();
     let cpu = cpu_seconds() - cpu;
     let report = reports.first().copied().flatten();
     let busy = report.map_or(f64::NAN, |w| w.busy.as_secs_f64());
-    let (units, queued_ahead) = report.map_or((0, 0), |w| (w.units_done + w.units_stale + w.units_canceled, w.units_queued_ahead));
+    let (units, queued_ahead) = report.map_or((0, 0), |w| {
+        (w.units_done + w.units_stale + w.units_canceled, w.units_queued_ahead)
+    });
     let (up, job, seen, exr, (render_cpu, other_cpu)) = phases;
     Ok(FarmRun { up, job, seen, exr, total, busy, units, queued_ahead, cpu, render_cpu, other_cpu })
 }
@@ -290,6 +334,9 @@ mod tests {
         assert!((level - (1.0 - 2.0 * 576.0 / 32768.0)).abs() < 1e-12);
         // Five values: even the extremes cover only 1 − 2/32 = 93.75 %.
         assert!(median_interval(&[1.0, 2.0, 3.0, 4.0, 5.0]).is_none());
-        assert_eq!(median_interval(&[6.0, 1.0, 5.0, 2.0, 4.0, 3.0]).map(|(l, h, _)| (l, h)), Some((1.0, 6.0)));
+        assert_eq!(
+            median_interval(&[6.0, 1.0, 5.0, 2.0, 4.0, 3.0]).map(|(l, h, _)| (l, h)),
+            Some((1.0, 6.0))
+        );
     }
 }

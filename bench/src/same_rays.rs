@@ -7,13 +7,13 @@
 //! The machine drifts by ±15 % within minutes, more than the differences measured, so the three
 //! timings run back to back in rounds and each round gives its own ratios; the median round
 //! and the range are printed.
-use tessera_render::tracer::RenderOptions;
 use crate::bvh::{BvhBench, render_one_core};
 use crate::overhead::settings;
 use crate::stock::{StockBvh, ours_counted, ours_logged};
+use std::path::Path;
+use tessera_render::tracer::RenderOptions;
 use tessera_render::tracer::accel::{Accel, WalkCounts};
 use tessera_render::tracer::ray_log::{LoggedRay, RayLog, RayQuery};
-use std::path::Path;
 use tessera_render::tracer::{Scene, render_tile};
 
 /// One round's rates, in rays per second on one core.
@@ -34,7 +34,8 @@ pub fn run(scene: &Scene, stock: &StockBvh, b: &BvhBench) -> anyhow::Result<()> 
         write_rays(path, &logged)?;
         crate::say!("wrote the render's {} rays to {}", logged.len(), path.display());
     }
-    let (shadows, closests): (Vec<LoggedRay>, Vec<LoggedRay>) = logged.iter().partition(|r| r.query == RayQuery::Occluded);
+    let (shadows, closests): (Vec<LoggedRay>, Vec<LoggedRay>) =
+        logged.iter().partition(|r| r.query == RayQuery::Occluded);
     let shadow = shadows.len();
     let mut hits = (0, 0);
     let mut all = Vec::with_capacity(rounds);
@@ -45,7 +46,13 @@ pub fn run(scene: &Scene, stock: &StockBvh, b: &BvhBench) -> anyhow::Result<()> 
         hits = (ours_hits, stock_hits);
         let n = logged.len() as f64;
         let rate = |rays: &[LoggedRay]| rays.len() as f64 / ours_logged(&scene.accel, rays).1;
-        all.push(Round { render: n / secs, ours: n / ours_s, stock: n / stock_s, ours_closest: rate(&closests), ours_shadow: rate(&shadows) });
+        all.push(Round {
+            render: n / secs,
+            ours: n / ours_s,
+            stock: n / stock_s,
+            ours_closest: rate(&closests),
+            ours_shadow: rate(&shadows),
+        });
     }
     crate::say!(
         "the render's own {} rays ({:.0} % shadow rays) traced alone, {} rounds back to back: ours {} M rays/s ({} hit), obvhs's {} M rays/s ({} hit), the render {} M rays/s",
@@ -75,14 +82,20 @@ fn say_walk(accel: &Accel, logged: &[LoggedRay]) {
         let (nodes, packets, triangles) = c.per_ray();
         format!("{nodes:.2} node tests, {packets:.2} packet tests ({triangles:.2} triangles)")
     };
-    crate::say!("our walk per ray: closest-hit rays {}; shadow rays {}", per_ray(&closest), per_ray(&shadow));
+    crate::say!(
+        "our walk per ray: closest-hit rays {}; shadow rays {}",
+        per_ray(&closest),
+        per_ray(&shadow)
+    );
 }
 
 /// The same rays through Mitsuba's traversal (Embree), when the scene is a glTF and Mitsuba is
 /// installed; otherwise why not.
 fn say_embree(b: &BvhBench, logged: &[LoggedRay], rounds: &[Round]) {
     let Some(scene) = &b.scene else {
-        crate::say!("Mitsuba's traversal (Embree) not measured: the generated field is not a glTF (try --scene)");
+        crate::say!(
+            "Mitsuba's traversal (Embree) not measured: the generated field is not a glTF (try --scene)"
+        );
         return;
     };
     match crate::embree::trace(&b.python, scene, logged) {
@@ -101,7 +114,12 @@ fn say_embree(b: &BvhBench, logged: &[LoggedRay], rounds: &[Round]) {
 /// "ours X against Embree's Y M rays/s" for one kind of ray, or "none" when there were none.
 fn share(ours: f64, embree: Option<f64>) -> String {
     match embree {
-        Some(e) if ours.is_finite() => format!("ours {:.2} against {:.2} M rays/s, {:.0} %", ours / 1e6, e / 1e6, 100.0 * ours / e),
+        Some(e) if ours.is_finite() => format!(
+            "ours {:.2} against {:.2} M rays/s, {:.0} %",
+            ours / 1e6,
+            e / 1e6,
+            100.0 * ours / e
+        ),
         _ => "none".into(),
     }
 }
@@ -128,9 +146,18 @@ fn spread(rounds: &[Round], figure: impl Fn(&Round) -> f64) -> String {
 
 /// The seconds [`render_one_core`] takes, checking that it traced the rays [`log_rays`] logged
 /// (the same render, so its rate is the rate of those rays).
-pub(crate) fn render_timed(scene: &Scene, size: u32, spp: u32, logged: &[LoggedRay]) -> anyhow::Result<f64> {
+pub(crate) fn render_timed(
+    scene: &Scene,
+    size: u32,
+    spp: u32,
+    logged: &[LoggedRay],
+) -> anyhow::Result<f64> {
     let (traced, secs) = render_one_core(scene, size, spp)?;
-    anyhow::ensure!(traced == logged.len() as u64, "the render traced {traced} rays, its log holds {}", logged.len());
+    anyhow::ensure!(
+        traced == logged.len() as u64,
+        "the render traced {traced} rays, its log holds {}",
+        logged.len()
+    );
     Ok(secs)
 }
 
@@ -139,7 +166,16 @@ pub(crate) fn log_rays(scene: &Scene, size: u32, spp: u32) -> anyhow::Result<Vec
     let settings = settings(size)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let log = RayLog::new();
-    pool.install(|| render_tile(scene, &settings, settings.full_frame(), 0..spp, &RenderOptions { ray_log: Some(&log), ..RenderOptions::default() })).map_err(anyhow::Error::msg)?;
+    pool.install(|| {
+        render_tile(
+            scene,
+            &settings,
+            settings.full_frame(),
+            0..spp,
+            &RenderOptions { ray_log: Some(&log), ..RenderOptions::default() },
+        )
+    })
+    .map_err(anyhow::Error::msg)?;
     Ok(log.take())
 }
 
@@ -151,11 +187,16 @@ pub(crate) fn write_rays(path: &Path, rays: &[LoggedRay]) -> anyhow::Result<()> 
             RayQuery::Closest => 0.0f32,
             RayQuery::Occluded => 1.0,
         };
-        for v in [r.ray.origin.to_array(), r.ray.dir.to_array()].concat().into_iter().chain([r.t_max, kind]) {
+        for v in [r.ray.origin.to_array(), r.ray.dir.to_array()]
+            .concat()
+            .into_iter()
+            .chain([r.t_max, kind])
+        {
             bytes.extend_from_slice(&v.to_le_bytes());
         }
     }
-    std::fs::write(path, bytes).map_err(|e| anyhow::anyhow!("cannot write rays to {}: {e}", path.display()))
+    std::fs::write(path, bytes)
+        .map_err(|e| anyhow::anyhow!("cannot write rays to {}: {e}", path.display()))
 }
 
 #[cfg(test)]
@@ -167,15 +208,47 @@ mod tests {
     #[test]
     fn saved_rays_are_eight_little_endian_floats_each_in_order() {
         let rays = [
-            LoggedRay { ray: Ray::new(Vec3::new(1.0, 2.0, 3.0), Vec3::new(0.0, -1.0, 0.5)), t_max: f32::INFINITY, query: RayQuery::Closest },
-            LoggedRay { ray: Ray::new(Vec3::new(-4.0, 0.25, 9.0), Vec3::new(2.0, 0.0, -3.0)), t_max: 0.999, query: RayQuery::Occluded },
+            LoggedRay {
+                ray: Ray::new(Vec3::new(1.0, 2.0, 3.0), Vec3::new(0.0, -1.0, 0.5)),
+                t_max: f32::INFINITY,
+                query: RayQuery::Closest,
+            },
+            LoggedRay {
+                ray: Ray::new(Vec3::new(-4.0, 0.25, 9.0), Vec3::new(2.0, 0.0, -3.0)),
+                t_max: 0.999,
+                query: RayQuery::Occluded,
+            },
         ];
         let dir = tessera_server::scratch::ScratchDir::new("saved-rays");
         std::fs::create_dir_all(dir.path()).unwrap();
         let path = dir.path().join("rays.bin");
         write_rays(&path, &rays).unwrap();
-        let floats: Vec<f32> = std::fs::read(&path).unwrap().chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().unwrap())).collect();
-        assert_eq!(floats, [1.0, 2.0, 3.0, 0.0, -1.0, 0.5, f32::INFINITY, 0.0, -4.0, 0.25, 9.0, 2.0, 0.0, -3.0, 0.999, 1.0]);
+        let floats: Vec<f32> = std::fs::read(&path)
+            .unwrap()
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+            .collect();
+        assert_eq!(
+            floats,
+            [
+                1.0,
+                2.0,
+                3.0,
+                0.0,
+                -1.0,
+                0.5,
+                f32::INFINITY,
+                0.0,
+                -4.0,
+                0.25,
+                9.0,
+                2.0,
+                0.0,
+                -3.0,
+                0.999,
+                1.0
+            ]
+        );
         let err = write_rays(&dir.path().join("no-such-dir/rays.bin"), &rays).unwrap_err();
         assert!(err.to_string().starts_with("cannot write rays to "), "{err}");
     }

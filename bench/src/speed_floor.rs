@@ -26,7 +26,10 @@ pub fn say(python: &str, name: &str, scene: &Scene, ratios: &[(u32, f64)]) {
     match rates(python, name, scene) {
         Ok((render, embree)) => {
             let share = render / embree.rays_per_s;
-            let floors: Vec<String> = ratios.iter().map(|&(spp, ratio)| format!("{:.3} at {spp} spp", ratio * share)).collect();
+            let floors: Vec<String> = ratios
+                .iter()
+                .map(|&(spp, ratio)| format!("{:.3} at {spp} spp", ratio * share))
+                .collect();
             crate::say!(
                 "speed alone: on one core the render traces {:.2} M rays/s and Embree {:.2} M rays/s of the same {} rays; with every ray traced at Embree's rate and nothing else costing any time, the ratio would be {:.0} % of the above: {} (target ≤ 0.33; lower needs less error at equal spp)",
                 render / 1e6,
@@ -45,7 +48,8 @@ fn rates(python: &str, name: &str, scene: &Scene) -> anyhow::Result<(f64, Embree
     let rays = log_rays(scene, SIZE, SPP)?;
     // Embree first: where it cannot run, the two timed renders would be wasted.
     let embree = embree::trace(python, name, &rays)?;
-    let fastest = render_timed(scene, SIZE, SPP, &rays)?.min(render_timed(scene, SIZE, SPP, &rays)?);
+    let fastest =
+        render_timed(scene, SIZE, SPP, &rays)?.min(render_timed(scene, SIZE, SPP, &rays)?);
     Ok((rays.len() as f64 / fastest, embree))
 }
 
@@ -55,7 +59,11 @@ mod tests {
 
     #[test]
     fn without_mitsuba_it_says_why_instead_of_failing() {
-        let scene = tessera_render::scene::load_bytes(tessera_server::bundled::get("cornell-box").expect("bundled"), None).expect("loads");
+        let scene = tessera_render::scene::load_bytes(
+            tessera_server::bundled::get("cornell-box").expect("bundled"),
+            None,
+        )
+        .expect("loads");
         let err = rates("/nonexistent/python3", "cornell-box", &scene).expect_err("no interpreter");
         assert!(format!("{err:#}").contains("/nonexistent/python3"), "{err:#}");
         say("/nonexistent/python3", "cornell-box", &scene, &[(64, 1.7)]);

@@ -17,8 +17,15 @@ pub struct StockBvh {
 
 impl StockBvh {
     pub fn new(tris: &[[Vec3; 3]]) -> StockBvh {
-        let tris: Vec<Triangle> = tris.iter().map(|t| Triangle { v0: t[0].into(), v1: t[1].into(), v2: t[2].into() }).collect();
-        let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&tris, obvhs::BvhBuildParams::medium_build(), &mut std::time::Duration::default());
+        let tris: Vec<Triangle> = tris
+            .iter()
+            .map(|t| Triangle { v0: t[0].into(), v1: t[1].into(), v2: t[2].into() })
+            .collect();
+        let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(
+            &tris,
+            obvhs::BvhBuildParams::medium_build(),
+            &mut std::time::Duration::default(),
+        );
         StockBvh { tris, bvh }
     }
 
@@ -26,7 +33,9 @@ impl StockBvh {
     /// the nearest).
     fn hits(&self, ray: &Ray, t_max: f32, query: RayQuery) -> bool {
         let ray = obvhs::ray::Ray::new(ray.origin.into(), ray.dir.into(), 0.0, t_max);
-        let test = |r: &obvhs::ray::Ray, id: usize| self.tris[self.bvh.primitive_indices[id] as usize].intersect(r);
+        let test = |r: &obvhs::ray::Ray, id: usize| {
+            self.tris[self.bvh.primitive_indices[id] as usize].intersect(r)
+        };
         match query {
             RayQuery::Closest => self.bvh.ray_traverse(ray, &mut obvhs::ray::RayHit::none(), test),
             RayQuery::Occluded => !self.bvh.ray_traverse_miss(ray, test),

@@ -17,7 +17,10 @@ pub mod sums;
 #[cfg(test)]
 mod sums_fuzz;
 
-pub use job::{FrameRange, FrameStatus, Job, JobList, JobRequest, JobState, Progress, RenderParams, WorkerContribution, WorkerFailures};
+pub use job::{
+    FrameRange, FrameStatus, Job, JobList, JobRequest, JobState, Progress, RenderParams,
+    WorkerContribution, WorkerFailures,
+};
 pub use lease::{Heartbeat, Lease, LeaseRequest, Registration, WorkerHello, WorkerInfo};
 pub use problem::Problem;
 pub use scene::{SceneAnimation, SceneListing, SceneUploaded};

@@ -75,7 +75,9 @@ impl PartialSums {
         out.extend_from_slice(MAGIC);
         out.extend_from_slice(&VERSION.to_le_bytes());
         out.extend_from_slice(&0u16.to_le_bytes());
-        for v in [self.tile.x0, self.tile.y0, self.tile.w, self.tile.h, self.samples[0], self.samples[1]] {
+        for v in
+            [self.tile.x0, self.tile.y0, self.tile.w, self.tile.h, self.samples[0], self.samples[1]]
+        {
             out.extend_from_slice(&v.to_le_bytes());
         }
         out.extend_from_slice(&self.dropped.to_le_bytes());
@@ -83,7 +85,8 @@ impl PartialSums {
         // Fixed-size pixel records written in place: no capacity check per value.
         out.resize(HEADER_LEN + PIXEL_LEN * self.pixels.len(), 0);
         for (b, p) in out[HEADER_LEN..].chunks_exact_mut(PIXEL_LEN).zip(&self.pixels) {
-            let values = [p.sum[0], p.sum[1], p.sum[2], p.sum_sq[0], p.sum_sq[1], p.sum_sq[2], p.sum_lum_sq];
+            let values =
+                [p.sum[0], p.sum[1], p.sum[2], p.sum_sq[0], p.sum_sq[1], p.sum_sq[2], p.sum_lum_sq];
             for (k, v) in values.iter().enumerate() {
                 b[8 * k..8 * k + 8].copy_from_slice(&v.to_le_bytes());
             }
@@ -96,7 +99,10 @@ impl PartialSums {
     /// and every sample of the range either counted in a pixel or dropped.
     pub fn decode(bytes: &[u8]) -> Result<PartialSums, SumsError> {
         if bytes.len() < HEADER_LEN {
-            return err(format!("body is {} bytes, shorter than the {HEADER_LEN}-byte header", bytes.len()));
+            return err(format!(
+                "body is {} bytes, shorter than the {HEADER_LEN}-byte header",
+                bytes.len()
+            ));
         }
         if &bytes[0..4] != MAGIC {
             return err("not Tessera partial sums (bad magic)");
@@ -117,7 +123,13 @@ impl PartialSums {
         let n = tile.pixel_count();
         let expected = n.checked_mul(PIXEL_LEN).and_then(|p| p.checked_add(HEADER_LEN));
         if expected != Some(bytes.len()) {
-            return err(format!("body is {} bytes; a {}×{} tile needs {:?}", bytes.len(), tile.w, tile.h, expected));
+            return err(format!(
+                "body is {} bytes; a {}×{} tile needs {:?}",
+                bytes.len(),
+                tile.w,
+                tile.h,
+                expected
+            ));
         }
         if samples[1] <= samples[0] {
             return err(format!("empty sample range [{}, {})", samples[0], samples[1]));
@@ -138,17 +150,27 @@ impl PartialSums {
             })
             .collect();
         if !all_valid {
-            let (i, p) = pixels.iter().enumerate().find(|(_, p)| !valid(p, per_pixel)).expect("a pixel is invalid");
+            let (i, p) = pixels
+                .iter()
+                .enumerate()
+                .find(|(_, p)| !valid(p, per_pixel))
+                .expect("a pixel is invalid");
             return err(match p.count > per_pixel {
-                true => format!("pixel {i}: {} samples, more than the range's {per_pixel}", p.count),
+                true => {
+                    format!("pixel {i}: {} samples, more than the range's {per_pixel}", p.count)
+                }
                 false => format!("pixel {i}: sums must be finite and squares ≥ 0"),
             });
         }
         let counted = pixels.iter().try_fold(0u64, |a, p| a.checked_add(p.count));
         let in_unit = per_pixel.checked_mul(n as u64);
-        let (Some(counted), Some(in_unit)) = (counted, in_unit) else { return err("sample counts overflow 64 bits") };
+        let (Some(counted), Some(in_unit)) = (counted, in_unit) else {
+            return err("sample counts overflow 64 bits");
+        };
         if counted.checked_add(dropped) != Some(in_unit) {
-            return err(format!("{counted} samples counted + {dropped} dropped ≠ {in_unit} in the unit"));
+            return err(format!(
+                "{counted} samples counted + {dropped} dropped ≠ {in_unit} in the unit"
+            ));
         }
         Ok(PartialSums { tile, samples, dropped, max_weight, pixels })
     }
@@ -162,7 +184,8 @@ fn wire_pixel(b: &[u8]) -> WirePixel {
 
 /// Finite sums, squares ≥ 0, at most the unit's samples per pixel.
 fn valid(p: &WirePixel, per_pixel: u64) -> bool {
-    let finite = p.sum.iter().chain(&p.sum_sq).fold(p.sum_lum_sq.is_finite(), |ok, v| ok & v.is_finite());
+    let finite =
+        p.sum.iter().chain(&p.sum_sq).fold(p.sum_lum_sq.is_finite(), |ok, v| ok & v.is_finite());
     let squares = p.sum_sq.iter().fold(p.sum_lum_sq >= 0.0, |ok, v| ok & (*v >= 0.0));
     finite & squares & (p.count <= per_pixel)
 }
@@ -174,7 +197,12 @@ mod tests {
     fn sample() -> PartialSums {
         let tile = TileRect { x0: 64, y0: 0, w: 3, h: 2 };
         let pixels = (0..6)
-            .map(|i| WirePixel { sum: [i as f64 * 0.1, 0.2, 1e-300], sum_sq: [0.5, 0.25, 0.0], sum_lum_sq: 0.3, count: if i == 0 { 3 } else { 4 } })
+            .map(|i| WirePixel {
+                sum: [i as f64 * 0.1, 0.2, 1e-300],
+                sum_sq: [0.5, 0.25, 0.0],
+                sum_lum_sq: 0.3,
+                count: if i == 0 { 3 } else { 4 },
+            })
             .collect();
         PartialSums { tile, samples: [16, 20], dropped: 1, max_weight: 2.5, pixels }
     }
@@ -194,14 +222,70 @@ mod tests {
             (good[..40].to_vec(), "shorter than"),
             (good[..good.len() - 1].to_vec(), "needs"),
             ([b"XSUM", &good[4..]].concat(), "bad magic"),
-            ({ let mut b = good.clone(); b[4] = 9; b }, "unsupported version"),
-            ({ let mut b = good.clone(); b[6] = 1; b }, "reserved"),
-            ({ let mut b = good.clone(); b[48..56].copy_from_slice(&f64::NAN.to_le_bytes()); b }, "finite"),
-            ({ let mut b = good.clone(); b[48 + 24..48 + 32].copy_from_slice(&(-1f64).to_le_bytes()); b }, "squares"),
-            ({ let mut b = good.clone(); b[32] = 0; b }, "counted"),
-            ({ let mut b = good.clone(); b[48 + 56] = 9; b }, "more than"),
-            ({ let mut b = good.clone(); b[28..32].copy_from_slice(&16u32.to_le_bytes()); b }, "empty sample range"),
-            ({ let mut b = good.clone(); b[16..20].copy_from_slice(&u32::MAX.to_le_bytes()); b }, "needs"),
+            (
+                {
+                    let mut b = good.clone();
+                    b[4] = 9;
+                    b
+                },
+                "unsupported version",
+            ),
+            (
+                {
+                    let mut b = good.clone();
+                    b[6] = 1;
+                    b
+                },
+                "reserved",
+            ),
+            (
+                {
+                    let mut b = good.clone();
+                    b[48..56].copy_from_slice(&f64::NAN.to_le_bytes());
+                    b
+                },
+                "finite",
+            ),
+            (
+                {
+                    let mut b = good.clone();
+                    b[48 + 24..48 + 32].copy_from_slice(&(-1f64).to_le_bytes());
+                    b
+                },
+                "squares",
+            ),
+            (
+                {
+                    let mut b = good.clone();
+                    b[32] = 0;
+                    b
+                },
+                "counted",
+            ),
+            (
+                {
+                    let mut b = good.clone();
+                    b[48 + 56] = 9;
+                    b
+                },
+                "more than",
+            ),
+            (
+                {
+                    let mut b = good.clone();
+                    b[28..32].copy_from_slice(&16u32.to_le_bytes());
+                    b
+                },
+                "empty sample range",
+            ),
+            (
+                {
+                    let mut b = good.clone();
+                    b[16..20].copy_from_slice(&u32::MAX.to_le_bytes());
+                    b
+                },
+                "needs",
+            ),
         ];
         for (bytes, why) in cases {
             let e = PartialSums::decode(&bytes).unwrap_err();

@@ -17,15 +17,18 @@ enum Mutation {
     F64(Index, f64),
 }
 
-const EDGE_F64: &[f64] = &[f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -0.0, -1.0, f64::MAX, f64::MIN_POSITIVE, 5e-324];
-const EDGE_U32: &[u32] = &[0, 1, 2, 3, 4, 7, 8, 15, 16, 64, 0x7fff_ffff, 0x8000_0000, u32::MAX - 1, u32::MAX];
+const EDGE_F64: &[f64] =
+    &[f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -0.0, -1.0, f64::MAX, f64::MIN_POSITIVE, 5e-324];
+const EDGE_U32: &[u32] =
+    &[0, 1, 2, 3, 4, 7, 8, 15, 16, 64, 0x7fff_ffff, 0x8000_0000, u32::MAX - 1, u32::MAX];
 
 fn mutation() -> impl Strategy<Value = Mutation> {
     prop_oneof![
         (any::<Index>(), 0u8..8).prop_map(|(i, b)| Mutation::Flip(i, b)),
         any::<Index>().prop_map(Mutation::Truncate),
         prop::collection::vec(any::<u8>(), 1..80).prop_map(Mutation::Extend),
-        (any::<Index>(), any::<Index>(), 1usize..72).prop_map(|(a, b, n)| Mutation::Splice(a, b, n)),
+        (any::<Index>(), any::<Index>(), 1usize..72)
+            .prop_map(|(a, b, n)| Mutation::Splice(a, b, n)),
         // Header words (tile, samples, dropped) are u32-aligned: aim there most.
         (any::<Index>(), prop::sample::select(EDGE_U32)).prop_map(|(i, v)| Mutation::U32(i, v)),
         (any::<Index>(), prop::sample::select(EDGE_F64)).prop_map(|(i, v)| Mutation::F64(i, v)),
@@ -57,16 +60,31 @@ fn apply(b: &mut Vec<u8>, m: &Mutation) {
 
 fn valid(w: u32, h: u32, samples: [u32; 2], dropped: u64) -> PartialSums {
     let per = (samples[1] - samples[0]) as u64;
-    let mut pixels = vec![WirePixel { sum: [0.5, 1.0, 2.0], sum_sq: [0.25, 1.0, 4.0], sum_lum_sq: 1.0, count: per }; (w * h) as usize];
+    let mut pixels = vec![
+        WirePixel {
+            sum: [0.5, 1.0, 2.0],
+            sum_sq: [0.25, 1.0, 4.0],
+            sum_lum_sq: 1.0,
+            count: per
+        };
+        (w * h) as usize
+    ];
     pixels[0].count -= dropped;
-    PartialSums { tile: TileRect { x0: 64, y0: 8, w, h }, samples, dropped, max_weight: 3.5, pixels }
+    PartialSums {
+        tile: TileRect { x0: 64, y0: 8, w, h },
+        samples,
+        dropped,
+        max_weight: 3.5,
+        pixels,
+    }
 }
 
 #[test]
 fn mutated_results_decode_or_are_refused_with_a_reason() {
     let seeds = [valid(1, 1, [0, 1], 0), valid(3, 2, [16, 20], 1), valid(8, 8, [4, 8], 2)];
     let config = Config { cases: 100_000, failure_persistence: None, ..Config::default() };
-    let mut runner = TestRunner::new_with_rng(config, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
+    let mut runner =
+        TestRunner::new_with_rng(config, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
     let strategy = (0..seeds.len(), prop::collection::vec(mutation(), 1..4));
     let (decoded, t0) = (std::cell::Cell::new(0u32), std::time::Instant::now());
     let result = runner.run(&strategy, |(s, muts)| {
@@ -78,10 +96,15 @@ fn mutated_results_decode_or_are_refused_with_a_reason() {
             Ok(Ok(p)) => {
                 decoded.set(decoded.get() + 1);
                 prop_assert_eq!(p.encode(), bytes.clone(), "decode ∘ encode is the identity");
-                let finite = p.pixels.iter().all(|q| q.sum.iter().chain(&q.sum_sq).chain([&q.sum_lum_sq]).all(|v| v.is_finite()));
+                let finite = p.pixels.iter().all(|q| {
+                    q.sum.iter().chain(&q.sum_sq).chain([&q.sum_lum_sq]).all(|v| v.is_finite())
+                });
                 prop_assert!(finite && p.max_weight.is_finite());
                 let counted: u64 = p.pixels.iter().map(|q| q.count).sum();
-                prop_assert_eq!(counted + p.dropped, (p.samples[1] - p.samples[0]) as u64 * p.pixels.len() as u64);
+                prop_assert_eq!(
+                    counted + p.dropped,
+                    (p.samples[1] - p.samples[0]) as u64 * p.pixels.len() as u64
+                );
             }
         }
         Ok(())

@@ -11,21 +11,22 @@
 //! - `path/tile`: a 16×16 tile at 16 samples per pixel (a unit's default batch) through
 //!   `render_tile` on one thread, as renders take them (a pixel's samples in a row, its sampler
 //!   seeds kept): the kernel closest to whole frames.
-use tessera_render::tracer::RenderOptions;
 use criterion::{Criterion, Throughput, black_box, criterion_group, criterion_main};
 use glam::{Vec2, Vec3};
 use std::path::Path;
+use tessera_render::tracer::RenderOptions;
+use tessera_render::tracer::Scene;
 use tessera_render::tracer::effects::Kernel;
 use tessera_render::tracer::film::Tile;
 use tessera_render::tracer::integrator::{Integrator, PathSettings};
-use tessera_render::tracer::render::{RenderSettings, render_tile};
 use tessera_render::tracer::ray::Ray;
+use tessera_render::tracer::render::{RenderSettings, render_tile};
 use tessera_render::tracer::sampler::{Sampler, SamplerKind};
-use tessera_render::tracer::Scene;
 
 fn cornell() -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box.gltf");
-    tessera_render::scene::load_bytes(&std::fs::read(&path).expect("scenes/cornell-box.gltf"), None).expect("scene")
+    tessera_render::scene::load_bytes(&std::fs::read(&path).expect("scenes/cornell-box.gltf"), None)
+        .expect("scene")
 }
 
 /// A fixed xorshift stream of numbers in [0, 1).
@@ -125,7 +126,16 @@ fn tile(c: &mut Criterion) {
     let one_thread = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
     let mut g = c.benchmark_group("path");
     g.throughput(Throughput::Elements(u64::from(tile.w * tile.h * spp)));
-    g.bench_function("tile", |b| b.iter(|| one_thread.install(|| black_box(render_tile(&scene, &settings, tile, 0..spp, &RenderOptions::default()).expect("tile")))));
+    g.bench_function("tile", |b| {
+        b.iter(|| {
+            one_thread.install(|| {
+                black_box(
+                    render_tile(&scene, &settings, tile, 0..spp, &RenderOptions::default())
+                        .expect("tile"),
+                )
+            })
+        })
+    });
     g.finish();
 }
 

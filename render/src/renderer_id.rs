@@ -25,7 +25,14 @@ const PROBE_POINTS: u32 = 4096;
 /// This process's renderer id (computed once).
 pub fn renderer_id() -> &'static str {
     static ID: OnceLock<String> = OnceLock::new();
-    ID.get_or_init(|| format!("tessera {} src:{} libm:{}", env!("CARGO_PKG_VERSION"), env!("TESSERA_SOURCE_HASH"), libm_probe()))
+    ID.get_or_init(|| {
+        format!(
+            "tessera {} src:{} libm:{}",
+            env!("CARGO_PKG_VERSION"),
+            env!("TESSERA_SOURCE_HASH"),
+            libm_probe()
+        )
+    })
 }
 
 /// Eight hex digits of a hash over the probed functions' results, bit for bit.
@@ -37,7 +44,19 @@ fn libm_probe() -> String {
         let x = 1e-3 * 1e6f32.powf(u);
         let angle = std::f32::consts::TAU * u;
         let (s, c) = angle.sin_cos();
-        let results = [s, c, angle.sin(), angle.cos(), (1.5 * u).tan(), (-x).exp(), (-u).exp_m1(), u.ln(), (-u).ln_1p(), ((u + 0.055) / 1.055).powf(2.4), (2.0 * u - 1.0).acos()];
+        let results = [
+            s,
+            c,
+            angle.sin(),
+            angle.cos(),
+            (1.5 * u).tan(),
+            (-x).exp(),
+            (-u).exp_m1(),
+            u.ln(),
+            (-u).ln_1p(),
+            ((u + 0.055) / 1.055).powf(2.4),
+            (2.0 * u - 1.0).acos(),
+        ];
         for v in results {
             hash.update(v.to_bits().to_le_bytes());
         }
@@ -55,7 +74,10 @@ mod tests {
         let parts: Vec<&str> = id.split(' ').collect();
         assert_eq!(parts.len(), 4, "{id}");
         assert_eq!(parts[..2], ["tessera", env!("CARGO_PKG_VERSION")]);
-        let hex = |s: &str, prefix: &str, n: usize| s.strip_prefix(prefix).is_some_and(|h| h.len() == n && h.bytes().all(|b| b.is_ascii_hexdigit()));
+        let hex = |s: &str, prefix: &str, n: usize| {
+            s.strip_prefix(prefix)
+                .is_some_and(|h| h.len() == n && h.bytes().all(|b| b.is_ascii_hexdigit()))
+        };
         assert!(hex(parts[2], "src:", 12), "{id}");
         assert!(hex(parts[3], "libm:", 8), "{id}");
     }

@@ -5,12 +5,14 @@
 //! A counting global allocator sees every allocation in this test binary, which holds this one
 //! test only, so nothing else allocates concurrently. Per-unit and per-row allocations (the
 //! tile's sums, rayon's bookkeeping) are allowed: they do not grow with the sample count.
-use tessera_render::tracer::RenderOptions;
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicU64, Ordering};
-use tessera_render::tracer::sampler::SamplerKind;
 use std::sync::Arc;
-use tessera_render::tracer::{PathSettings, RenderSettings, RowQueue, Scene, Tile, TileSums, render_tile};
+use std::sync::atomic::{AtomicU64, Ordering};
+use tessera_render::tracer::RenderOptions;
+use tessera_render::tracer::sampler::SamplerKind;
+use tessera_render::tracer::{
+    PathSettings, RenderSettings, RowQueue, Scene, Tile, TileSums, render_tile,
+};
 
 struct Counting;
 
@@ -45,11 +47,19 @@ fn by_row_queue(scene: &Arc<Scene>, settings: &RenderSettings, spp: u32) -> Tile
     unit.take().expect("not canceled")
 }
 
-fn allocations_for(render: fn(&Arc<Scene>, &RenderSettings, u32) -> TileSums, scene: &Arc<Scene>, settings: &RenderSettings, spp: u32) -> u64 {
+fn allocations_for(
+    render: fn(&Arc<Scene>, &RenderSettings, u32) -> TileSums,
+    scene: &Arc<Scene>,
+    settings: &RenderSettings,
+    spp: u32,
+) -> u64 {
     let before = ALLOCATIONS.load(Ordering::Relaxed);
     let sums = render(scene, settings, spp);
     let after = ALLOCATIONS.load(Ordering::Relaxed);
-    assert_eq!(sums.pixels.iter().map(|p| p.count).sum::<u64>() + sums.dropped, u64::from(spp) * 256);
+    assert_eq!(
+        sums.pixels.iter().map(|p| p.count).sum::<u64>() + sums.dropped,
+        u64::from(spp) * 256
+    );
     drop(sums);
     after - before
 }
@@ -57,7 +67,11 @@ fn allocations_for(render: fn(&Arc<Scene>, &RenderSettings, u32) -> TileSums, sc
 #[test]
 fn the_hot_loop_does_not_allocate_per_sample() {
     let scenes = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes");
-    let mut names: Vec<_> = std::fs::read_dir(scenes).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "gltf")).collect();
+    let mut names: Vec<_> = std::fs::read_dir(scenes)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "gltf"))
+        .collect();
     names.sort();
     assert!(names.len() >= 9, "bundled scenes: {names:?}");
     // One thread: rayon's workers are started once, outside what is counted.
@@ -73,11 +87,18 @@ fn the_hot_loop_does_not_allocate_per_sample() {
             background: glam::Vec3::splat(0.2),
             camera: None,
         };
-        for (how, render) in [("render_tile", by_render_tile as fn(&_, &_, _) -> _), ("RowQueue", by_row_queue)] {
+        for (how, render) in
+            [("render_tile", by_render_tile as fn(&_, &_, _) -> _), ("RowQueue", by_row_queue)]
+        {
             allocations_for(render, &scene, &settings, 4); // warm-up: lazily initialised statics
             let few = allocations_for(render, &scene, &settings, 4);
             let many = allocations_for(render, &scene, &settings, 64);
-            assert_eq!(many, few, "{} by {how}: {few} allocations at 4 spp but {many} at 64 spp", path.display());
+            assert_eq!(
+                many,
+                few,
+                "{} by {how}: {few} allocations at 4 spp but {many} at 64 spp",
+                path.display()
+            );
         }
     }
 }

@@ -1,11 +1,11 @@
 //! The coordinator's HTTP application: `app(state) -> Router` and `run(listener, state, shutdown)`.
-use crate::routes::{events, health, images, jobs, leases, scenes};
 use crate::error::AppError;
+use crate::routes::{events, health, images, jobs, leases, scenes};
 use crate::state::AppState;
-use axum::http::{StatusCode, header};
-use axum::response::{IntoResponse, Response};
 use axum::Router;
 use axum::extract::DefaultBodyLimit;
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
 use std::time::Duration;
 use utoipa::OpenApi;
 use utoipa_axum::router::OpenApiRouter;
@@ -13,7 +13,10 @@ use utoipa_axum::router::UtoipaMethodRouterExt;
 use utoipa_axum::routes;
 
 #[derive(OpenApi)]
-#[openapi(info(title = "Tessera coordinator", description = "Distributed path-tracing render farm: clients submit jobs, workers lease units."))]
+#[openapi(info(
+    title = "Tessera coordinator",
+    description = "Distributed path-tracing render farm: clients submit jobs, workers lease units."
+))]
 struct ApiDoc;
 
 /// Largest JSON body on any route (jobs, leases, registrations).
@@ -48,13 +51,20 @@ pub fn app(state: AppState) -> Router {
         .split_for_parts();
     let api = std::sync::Arc::new(api);
     router
-        .route("/openapi.json", axum::routing::get(move || {
-            let api = api.clone();
-            async move { axum::Json(api.as_ref().clone()) }
-        }))
+        .route(
+            "/openapi.json",
+            axum::routing::get(move || {
+                let api = api.clone();
+                async move { axum::Json(api.as_ref().clone()) }
+            }),
+        )
         .merge(crate::dashboard::router())
-        .fallback(|uri: axum::http::Uri| async move { AppError::not_found(format!("no route {uri}")) })
-        .method_not_allowed_fallback(|| async { AppError::new(StatusCode::METHOD_NOT_ALLOWED, "this route does not take that method") })
+        .fallback(
+            |uri: axum::http::Uri| async move { AppError::not_found(format!("no route {uri}")) },
+        )
+        .method_not_allowed_fallback(|| async {
+            AppError::new(StatusCode::METHOD_NOT_ALLOWED, "this route does not take that method")
+        })
         .layer(DefaultBodyLimit::max(JSON_LIMIT))
         .layer(axum::middleware::from_fn_with_state(state.clone(), crate::auth::require_token))
         .layer(axum::middleware::map_response(as_problem))
@@ -65,13 +75,20 @@ pub fn app(state: AppState) -> Router {
 /// bad path or query, 413 from body limits) into one, keeping its status and message.
 async fn as_problem(resp: Response) -> Response {
     let status = resp.status();
-    let is_problem = resp.headers().get(header::CONTENT_TYPE).is_some_and(|v| v.as_bytes().starts_with(b"application/problem+json"));
+    let is_problem = resp
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .is_some_and(|v| v.as_bytes().starts_with(b"application/problem+json"));
     if !(status.is_client_error() || status.is_server_error()) || is_problem {
         return resp;
     }
     let body = axum::body::to_bytes(resp.into_body(), 64 << 10).await.unwrap_or_default();
     let text = String::from_utf8_lossy(&body).trim().to_string();
-    let detail = if text.is_empty() { status.canonical_reason().unwrap_or("error").to_string() } else { text };
+    let detail = if text.is_empty() {
+        status.canonical_reason().unwrap_or("error").to_string()
+    } else {
+        text
+    };
     AppError::new(status, detail).into_response()
 }
 
@@ -80,7 +97,11 @@ const SHUTDOWN_GRACE: Duration = Duration::from_secs(3);
 
 /// Serves until `shutdown` resolves, then lets requests in flight finish (at most
 /// `SHUTDOWN_GRACE`); a background task expires leases and time limits meanwhile.
-pub async fn run(listener: tokio::net::TcpListener, state: AppState, shutdown: impl std::future::Future<Output = ()> + Send + 'static) -> std::io::Result<()> {
+pub async fn run(
+    listener: tokio::net::TcpListener,
+    state: AppState,
+    shutdown: impl std::future::Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
     let ticker = tokio::spawn(tick_forever(state.clone()));
     let checkpointer = tokio::spawn(checkpoint_forever(state.clone()));
     let (stopping_tx, mut stopping) = tokio::sync::watch::channel(false);
@@ -128,7 +149,8 @@ async fn tick_forever(state: AppState) {
         interval.tick().await;
         if state.config.delete_ended_after_ms.is_some() && n % RETENTION_EVERY_TICKS == 0 {
             let st = state.clone();
-            let _ = tokio::task::spawn_blocking(move || st.delete_expired(crate::state::unix_ms())).await;
+            let _ = tokio::task::spawn_blocking(move || st.delete_expired(crate::state::unix_ms()))
+                .await;
         }
         state.scheduler.lock().expect("lock").tick(state.now());
         state.0.settle().await;

@@ -41,12 +41,21 @@ pub async fn require_token(State(st): State<AppState>, req: Request, next: Next)
         Role::Worker => st.config.worker_token.as_deref(),
     };
     if let Some(expected) = expected {
-        let given = req.headers().get(header::AUTHORIZATION).and_then(|v| v.to_str().ok()).and_then(|v| v.strip_prefix("Bearer "));
+        let given = req
+            .headers()
+            .get(header::AUTHORIZATION)
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.strip_prefix("Bearer "));
         let ok = given.is_some_and(|g| bool::from(g.as_bytes().ct_eq(expected.as_bytes())));
         if !ok {
-            let detail = if given.is_none() { "this route needs an Authorization: Bearer token" } else { "wrong token for this route" };
+            let detail = if given.is_none() {
+                "this route needs an Authorization: Bearer token"
+            } else {
+                "wrong token for this route"
+            };
             let mut resp = AppError::new(StatusCode::UNAUTHORIZED, detail).into_response();
-            resp.headers_mut().insert(header::WWW_AUTHENTICATE, header::HeaderValue::from_static("Bearer"));
+            resp.headers_mut()
+                .insert(header::WWW_AUTHENTICATE, header::HeaderValue::from_static("Bearer"));
             return resp;
         }
     }
@@ -70,6 +79,10 @@ mod tests {
         assert_eq!(role(&Method::GET, "/metrics"), Role::Client);
         assert_eq!(role(&Method::GET, "/"), Role::Open);
         assert_eq!(role(&Method::GET, "/ui/app.js"), Role::Open);
-        assert_eq!(role(&Method::GET, "/ui/secret"), Role::Client, "only the dashboard's own files");
+        assert_eq!(
+            role(&Method::GET, "/ui/secret"),
+            Role::Client,
+            "only the dashboard's own files"
+        );
     }
 }

@@ -36,6 +36,9 @@ pub fn load(scene: &str) -> anyhow::Result<tessera_render::tracer::Scene> {
     }
     match get(scene) {
         Some(bytes) => Ok(tessera_render::scene::load_bytes(bytes, None)?),
-        None => anyhow::bail!("{scene:?} is neither a file nor a bundled scene ({})", names().join(", ")),
+        None => anyhow::bail!(
+            "{scene:?} is neither a file nor a bundled scene ({})",
+            names().join(", ")
+        ),
     }
 }

@@ -13,7 +13,12 @@ pub struct Coordinator {
 
 impl Coordinator {
     pub fn new(base: &str, token: Option<String>) -> Coordinator {
-        Coordinator { base: base.trim_end_matches('/').to_string(), http: reqwest::Client::new(), token, poll: Duration::from_millis(100) }
+        Coordinator {
+            base: base.trim_end_matches('/').to_string(),
+            http: reqwest::Client::new(),
+            token,
+            poll: Duration::from_millis(100),
+        }
     }
 
     /// How often [`Coordinator::wait`] polls (default 100 ms).
@@ -31,38 +36,69 @@ impl Coordinator {
     }
 
     /// Uploads a scene file; returns its id.
-    pub async fn upload_scene(&self, bytes: Vec<u8>, binary: bool) -> anyhow::Result<SceneUploaded> {
+    pub async fn upload_scene(
+        &self,
+        bytes: Vec<u8>,
+        binary: bool,
+    ) -> anyhow::Result<SceneUploaded> {
         let ct = if binary { "model/gltf-binary" } else { "model/gltf+json" };
-        let resp = self.req(reqwest::Method::POST, "/v1/scenes").header("content-type", ct).body(bytes).send().await.context("uploading the scene")?;
+        let resp = self
+            .req(reqwest::Method::POST, "/v1/scenes")
+            .header("content-type", ct)
+            .body(bytes)
+            .send()
+            .await
+            .context("uploading the scene")?;
         json_or_problem(resp).await
     }
 
     pub async fn submit(&self, req: &JobRequest) -> anyhow::Result<Job> {
-        let resp = self.req(reqwest::Method::POST, "/v1/jobs").json(req).send().await.context("submitting the job")?;
+        let resp = self
+            .req(reqwest::Method::POST, "/v1/jobs")
+            .json(req)
+            .send()
+            .await
+            .context("submitting the job")?;
         json_or_problem(resp).await
     }
 
     pub async fn job(&self, id: &str) -> anyhow::Result<Job> {
-        let resp = self.req(reqwest::Method::GET, &format!("/v1/jobs/{id}")).send().await.context("reading the job")?;
+        let resp = self
+            .req(reqwest::Method::GET, &format!("/v1/jobs/{id}"))
+            .send()
+            .await
+            .context("reading the job")?;
         json_or_problem(resp).await
     }
 
     /// Pauses (`pause`) or resumes a job; the job after it.
     pub async fn set_paused(&self, id: &str, pause: bool) -> anyhow::Result<Job> {
         let action = if pause { "pause" } else { "resume" };
-        let resp = self.req(reqwest::Method::POST, &format!("/v1/jobs/{id}/{action}")).send().await.with_context(|| format!("asking to {action} the job"))?;
+        let resp = self
+            .req(reqwest::Method::POST, &format!("/v1/jobs/{id}/{action}"))
+            .send()
+            .await
+            .with_context(|| format!("asking to {action} the job"))?;
         json_or_problem(resp).await
     }
 
     /// Cancels a job; the job after it.
     pub async fn cancel(&self, id: &str) -> anyhow::Result<Job> {
-        let resp = self.req(reqwest::Method::DELETE, &format!("/v1/jobs/{id}")).send().await.context("canceling the job")?;
+        let resp = self
+            .req(reqwest::Method::DELETE, &format!("/v1/jobs/{id}"))
+            .send()
+            .await
+            .context("canceling the job")?;
         json_or_problem(resp).await
     }
 
     /// Deletes a job for good (canceled first if it runs): its record, checkpoints and images.
     pub async fn delete(&self, id: &str) -> anyhow::Result<()> {
-        let resp = self.req(reqwest::Method::DELETE, &format!("/v1/jobs/{id}?purge=true")).send().await.context("deleting the job")?;
+        let resp = self
+            .req(reqwest::Method::DELETE, &format!("/v1/jobs/{id}?purge=true"))
+            .send()
+            .await
+            .context("deleting the job")?;
         if !resp.status().is_success() {
             bail!("{}", problem_text(resp).await);
         }
@@ -70,7 +106,11 @@ impl Coordinator {
     }
 
     pub async fn bytes(&self, path: &str) -> anyhow::Result<Vec<u8>> {
-        let resp = self.req(reqwest::Method::GET, path).send().await.with_context(|| format!("GET {path}"))?;
+        let resp = self
+            .req(reqwest::Method::GET, path)
+            .send()
+            .await
+            .with_context(|| format!("GET {path}"))?;
         if !resp.status().is_success() {
             bail!("{}", problem_text(resp).await);
         }
@@ -96,7 +136,8 @@ impl Coordinator {
 
     /// The job's `progress` events up to its final state; None when the stream ends first.
     async fn follow_events(&self, id: &str, progress: &mut impl FnMut(&Job)) -> Option<Job> {
-        let mut resp = self.req(reqwest::Method::GET, &format!("/v1/jobs/{id}/events")).send().await.ok()?;
+        let mut resp =
+            self.req(reqwest::Method::GET, &format!("/v1/jobs/{id}/events")).send().await.ok()?;
         if !resp.status().is_success() {
             return None;
         }
@@ -135,7 +176,9 @@ fn progress_event(event: &str) -> Option<Job> {
     (kind == "progress").then(|| serde_json::from_str(&data).ok()).flatten()
 }
 
-async fn json_or_problem<T: serde::de::DeserializeOwned>(resp: reqwest::Response) -> anyhow::Result<T> {
+async fn json_or_problem<T: serde::de::DeserializeOwned>(
+    resp: reqwest::Response,
+) -> anyhow::Result<T> {
     if resp.status().is_success() {
         return Ok(resp.json().await?);
     }
@@ -159,7 +202,10 @@ pub fn progress_line(job: &Job) -> String {
     let noise = job.noise.map_or("-".into(), |n| format!("{n:.2e}"));
     let eta = job.eta_s.map_or("-".into(), |e| format!("{e:.1}s"));
     let paused = if job.state == tessera_proto::JobState::Paused { "paused, " } else { "" };
-    format!("{paused}{:.1}/{} spp, noise {noise}, {:.0} samples/s, eta {eta}, {} workers", job.progress.samples_done, job.progress.samples_target, job.samples_per_s, job.workers)
+    format!(
+        "{paused}{:.1}/{} spp, noise {noise}, {:.0} samples/s, eta {eta}, {} workers",
+        job.progress.samples_done, job.progress.samples_target, job.samples_per_s, job.workers
+    )
 }
 
 /// Uploads a scene file, or passes a name/id through.

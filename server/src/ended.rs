@@ -43,7 +43,10 @@ impl Shared {
             }
             // A frame released while the job ran has its file already (unless it was removed).
             let unreleased = (0..job.frame_count()).filter(|&i| !job.frame_released(i));
-            unreleased.map(|i| (i, self.frame_file(job, i))).filter(|(_, path)| !path.exists()).collect()
+            unreleased
+                .map(|i| (i, self.frame_file(job, i)))
+                .filter(|(_, path)| !path.exists())
+                .collect()
         };
         if !missing.is_empty()
             && let Err(e) = self.checkpoint()
@@ -57,7 +60,10 @@ impl Shared {
                 JobImage::of(job, index, self.now())
             };
             if let Err(e) = write_image(&snapshot, &path) {
-                tracing::error!(job = job_id, "writing the final image failed (it is encoded on request instead): {e:#}");
+                tracing::error!(
+                    job = job_id,
+                    "writing the final image failed (it is encoded on request instead): {e:#}"
+                );
                 return;
             }
         }
@@ -85,9 +91,17 @@ impl Shared {
                 if self.config.purge_each_frame {
                     crate::purge::return_freed_pages();
                 }
-                tracing::debug!(job = job_id, frame = index, "frame complete: image written, sums released");
+                tracing::debug!(
+                    job = job_id,
+                    frame = index,
+                    "frame complete: image written, sums released"
+                );
             }
-            Err(e) => tracing::error!(job = job_id, frame = index, "writing a complete frame's image failed (it is kept in memory and written when the job ends): {e:#}"),
+            Err(e) => tracing::error!(
+                job = job_id,
+                frame = index,
+                "writing a complete frame's image failed (it is kept in memory and written when the job ends): {e:#}"
+            ),
         }
     }
 
@@ -95,7 +109,8 @@ impl Shared {
     /// (the ticker calls it with the wall clock); returns how many.
     pub fn delete_expired(&self, now_unix_ms: u64) -> usize {
         let Some(keep) = self.config.delete_ended_after_ms else { return 0 };
-        let expired = self.scheduler.lock().expect("lock").ended_by(now_unix_ms.saturating_sub(keep));
+        let expired =
+            self.scheduler.lock().expect("lock").ended_by(now_unix_ms.saturating_sub(keep));
         let mut deleted = 0;
         for id in expired {
             match self.purge(&id) {
@@ -105,7 +120,9 @@ impl Shared {
                     self.notify(&id);
                 }
                 Ok(false) => {}
-                Err(e) => tracing::error!(job = %id, "deleting an expired job failed (retried): {e:#}"),
+                Err(e) => {
+                    tracing::error!(job = %id, "deleting an expired job failed (retried): {e:#}")
+                }
             }
         }
         deleted
@@ -134,7 +151,9 @@ impl Shared {
         }
         for path in images {
             match std::fs::remove_file(&path) {
-                Err(e) if e.kind() != std::io::ErrorKind::NotFound => tracing::warn!(job = job_id, "removing {}: {e}", path.display()),
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    tracing::warn!(job = job_id, "removing {}: {e}", path.display())
+                }
                 _ => {}
             }
         }

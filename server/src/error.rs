@@ -17,7 +17,11 @@ impl AppError {
 
     /// 400 naming the request field at fault.
     pub fn field(field: &str, detail: impl Into<String>) -> AppError {
-        AppError { status: StatusCode::BAD_REQUEST, detail: detail.into(), field: Some(field.to_string()) }
+        AppError {
+            status: StatusCode::BAD_REQUEST,
+            detail: detail.into(),
+            field: Some(field.to_string()),
+        }
     }
 
     pub fn not_found(what: impl Into<String>) -> AppError {
@@ -75,7 +79,11 @@ fn field_in(detail: &str) -> Option<String> {
     if let Some(rest) = detail.split("field `").nth(1) {
         return rest.split('`').next().map(str::to_string);
     }
-    let body = detail.split("target type: ").nth(1).or_else(|| detail.split("as JSON: ").nth(1)).unwrap_or(detail);
+    let body = detail
+        .split("target type: ")
+        .nth(1)
+        .or_else(|| detail.split("as JSON: ").nth(1))
+        .unwrap_or(detail);
     let (path, _) = body.split_once(": ")?;
     // An array element ("background[0]") is its field's fault.
     let path = path.split('[').next().unwrap_or(path);

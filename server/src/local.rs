@@ -31,7 +31,11 @@ where
 }
 
 /// As [`with_local_farm`] with one worker per entry of `threads` (its thread count; 0 = all cores).
-pub async fn with_local_workers<T, F, Fut>(data: &Path, threads: &[usize], f: F) -> anyhow::Result<T>
+pub async fn with_local_workers<T, F, Fut>(
+    data: &Path,
+    threads: &[usize],
+    f: F,
+) -> anyhow::Result<T>
 where
     F: FnOnce(Coordinator) -> Fut,
     Fut: std::future::Future<Output = anyhow::Result<T>>,
@@ -50,14 +54,23 @@ where
 }
 
 /// As [`with_farm`], also returning each worker's report (None for a worker whose `run` failed).
-pub async fn with_farm_reports<T, F, Fut>(data: &Path, farm: LocalFarm, f: F) -> anyhow::Result<(T, Vec<Option<WorkerReport>>)>
+pub async fn with_farm_reports<T, F, Fut>(
+    data: &Path,
+    farm: LocalFarm,
+    f: F,
+) -> anyhow::Result<(T, Vec<Option<WorkerReport>>)>
 where
     F: FnOnce(Coordinator) -> Fut,
     Fut: std::future::Future<Output = anyhow::Result<T>>,
 {
     // The farm lives and dies with this process: nothing to resume, so no checkpoints; and
     // its workers' memory is the process's (`Config::purge_each_frame`).
-    let config = Config { checkpoint_ms: None, frame_affinity: farm.frame_affinity, purge_each_frame: false, ..Config::new(data.to_path_buf()) };
+    let config = Config {
+        checkpoint_ms: None,
+        frame_affinity: farm.frame_affinity,
+        purge_each_frame: false,
+        ..Config::new(data.to_path_buf())
+    };
     let state = AppState::new(config)?;
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let url = format!("http://{}", listener.local_addr()?);
@@ -80,7 +93,8 @@ where
         })
         .collect();
     // Waits follow the job's event stream; should it break, loopback polls are cheap: poll often.
-    let outcome = f(Coordinator::new(&url, None).polling_every(std::time::Duration::from_millis(50))).await;
+    let outcome =
+        f(Coordinator::new(&url, None).polling_every(std::time::Duration::from_millis(50))).await;
     let _ = stop_workers.send(());
     let mut reports = Vec::with_capacity(workers.len());
     for worker in workers {

@@ -75,10 +75,17 @@ mod tests {
         }
         // SAFETY: reads an integer option.
         let get = || unsafe { libmimalloc_sys::mi_option_get(PURGE_DELAY) };
-        assert_eq!(get(), REFIT_PURGE_MS, "option {PURGE_DELAY} is not mimalloc 3's purge_delay (documented default 1000 ms)");
+        assert_eq!(
+            get(),
+            REFIT_PURGE_MS,
+            "option {PURGE_DELAY} is not mimalloc 3's purge_delay (documented default 1000 ms)"
+        );
         for_scene_builders();
         assert_eq!(get(), SCENE_BUILDER_PURGE_MS);
         // Not set and read back here: local workers of other tests in this process set it too.
-        assert_eq!((delay_for(Preparation::Build), delay_for(Preparation::Refit)), (SCENE_BUILDER_PURGE_MS, REFIT_PURGE_MS));
+        assert_eq!(
+            (delay_for(Preparation::Build), delay_for(Preparation::Refit)),
+            (SCENE_BUILDER_PURGE_MS, REFIT_PURGE_MS)
+        );
     }
 }

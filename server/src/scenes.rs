@@ -38,7 +38,13 @@ impl SceneStore {
     /// Opens the store and registers the bundled scenes.
     pub fn open(dir: PathBuf, max_triangles: u64) -> std::io::Result<SceneStore> {
         std::fs::create_dir_all(&dir)?;
-        let mut store = SceneStore { dir, meta: RwLock::new(HashMap::new()), names: HashMap::new(), bundled: HashMap::new(), max_triangles };
+        let mut store = SceneStore {
+            dir,
+            meta: RwLock::new(HashMap::new()),
+            names: HashMap::new(),
+            bundled: HashMap::new(),
+            max_triangles,
+        };
         store.index_stored();
         for (name, bytes) in bundled::SCENES {
             let id = scene_id(bytes);
@@ -72,7 +78,9 @@ impl SceneStore {
             }
             match std::fs::read(e.path()).map_err(|e| e.to_string()).and_then(|b| self.put(&b)) {
                 Ok(_) => {}
-                Err(err) => tracing::warn!(scene = %name, "ignoring a stored scene that no longer loads: {err}"),
+                Err(err) => {
+                    tracing::warn!(scene = %name, "ignoring a stored scene that no longer loads: {err}")
+                }
             }
         }
     }
@@ -84,23 +92,38 @@ impl SceneStore {
             return Ok(m.clone());
         }
         let meta = self.describe(&id, bytes)?;
-        write_atomically(&self.dir.join(&id), bytes).map_err(|e| format!("storing the scene failed: {e}"))?;
+        write_atomically(&self.dir.join(&id), bytes)
+            .map_err(|e| format!("storing the scene failed: {e}"))?;
         self.meta.write().expect("lock").insert(id, meta.clone());
         Ok(meta)
     }
 
     /// Parses (no BVH) and describes a scene, refusing one with no triangles or too many.
     fn describe(&self, id: &str, bytes: &[u8]) -> Result<SceneMeta, String> {
-        let parsed = tessera_render::scene::parse_limited(bytes, None, self.max_triangles).map_err(|e| e.0)?;
+        let parsed = tessera_render::scene::parse_limited(bytes, None, self.max_triangles)
+            .map_err(|e| e.0)?;
         let triangles = parsed.triangles() as u64;
         if triangles > self.max_triangles {
-            return Err(format!("the scene has {triangles} triangles; this coordinator accepts at most {}", self.max_triangles));
+            return Err(format!(
+                "the scene has {triangles} triangles; this coordinator accepts at most {}",
+                self.max_triangles
+            ));
         }
         if triangles == 0 {
             return Err("the scene has no triangles".into());
         }
-        let animations = parsed.animations().into_iter().map(|a| SceneAnimation { name: a.name, duration_s: a.duration_s }).collect();
-        Ok(SceneMeta { id: id.to_string(), triangles, effects: parsed.effects(), cameras: parsed.cameras(), animations })
+        let animations = parsed
+            .animations()
+            .into_iter()
+            .map(|a| SceneAnimation { name: a.name, duration_s: a.duration_s })
+            .collect();
+        Ok(SceneMeta {
+            id: id.to_string(),
+            triangles,
+            effects: parsed.effects(),
+            cameras: parsed.cameras(),
+            animations,
+        })
     }
 
     /// A scene id or a bundled name → the scene's metadata.
@@ -114,10 +137,15 @@ impl SceneStore {
     pub fn list(&self) -> Vec<(Option<String>, SceneMeta)> {
         self.bundled.keys().for_each(|id| self.ensure_described(id));
         let meta = self.meta.read().expect("lock");
-        let mut named: Vec<_> = self.names.iter().filter_map(|(n, id)| Some((Some(n.clone()), meta.get(id)?.clone()))).collect();
+        let mut named: Vec<_> = self
+            .names
+            .iter()
+            .filter_map(|(n, id)| Some((Some(n.clone()), meta.get(id)?.clone())))
+            .collect();
         named.sort_by(|a, b| a.0.cmp(&b.0));
         let bundled: std::collections::HashSet<&String> = self.names.values().collect();
-        let mut uploaded: Vec<_> = meta.values().filter(|m| !bundled.contains(&m.id)).map(|m| (None, m.clone())).collect();
+        let mut uploaded: Vec<_> =
+            meta.values().filter(|m| !bundled.contains(&m.id)).map(|m| (None, m.clone())).collect();
         uploaded.sort_by(|a, b| a.1.id.cmp(&b.1.id));
         named.extend(uploaded);
         named
@@ -138,7 +166,8 @@ impl SceneStore {
 pub fn write_atomically(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
     use std::io::Write;
     let dir = path.parent().unwrap_or(std::path::Path::new("."));
-    let tmp = dir.join(format!(".{}.tmp", path.file_name().and_then(|n| n.to_str()).unwrap_or("file")));
+    let tmp =
+        dir.join(format!(".{}.tmp", path.file_name().and_then(|n| n.to_str()).unwrap_or("file")));
     let mut f = std::fs::File::create(&tmp)?;
     f.write_all(bytes)?;
     f.sync_all()?;

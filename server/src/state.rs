@@ -104,11 +104,13 @@ impl AppState {
     /// Opens the data directory; with checkpoints on, resumes every stored job.
     pub fn new(config: Config) -> anyhow::Result<AppState> {
         let jobs_dir = config.data_dir.join("jobs");
-        std::fs::create_dir_all(&jobs_dir).with_context(|| format!("creating {}", jobs_dir.display()))?;
+        std::fs::create_dir_all(&jobs_dir)
+            .with_context(|| format!("creating {}", jobs_dir.display()))?;
         let scenes = SceneStore::open(config.data_dir.join("scenes"), config.max_triangles)?;
         let store = config.checkpoint_ms.map(|_| Store::open(&config.data_dir)).transpose()?;
         let epoch = store.as_ref().map(Store::next_boot).transpose()?.unwrap_or(0);
-        let mut scheduler = Scheduler::with_epoch(config.lease_timeout_ms, config.max_failures, epoch);
+        let mut scheduler =
+            Scheduler::with_epoch(config.lease_timeout_ms, config.max_failures, epoch);
         scheduler.set_frame_affinity(config.frame_affinity);
         scheduler.set_mix_renderers(config.mix_renderers);
         let finished = match &store {
@@ -188,12 +190,14 @@ impl Shared {
     pub(crate) fn frame_file(&self, job: &crate::scheduler::JobRun, index: usize) -> PathBuf {
         self.image_path(&job.cfg.id, job.is_animation().then(|| job.frame_number(index)))
     }
-
 }
 
 pub use crate::status::job_status;
 
 /// Milliseconds since the Unix epoch, by the wall clock.
 pub fn unix_ms() -> u64 {
-    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default().as_millis() as u64
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default()
+        .as_millis() as u64
 }

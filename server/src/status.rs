@@ -33,7 +33,12 @@ pub fn job_status(job: &JobRun, now: u64, workers: u32, max_failures: u32) -> Jo
         samples_per_s: rate * job.pixel_count() as f64,
         workers,
         effects: job.cfg.effects.clone(),
-        history: job.history.rows.iter().map(|r| [r[0], r[1], if r[2].is_finite() { r[2] } else { 0.0 }]).collect(),
+        history: job
+            .history
+            .rows
+            .iter()
+            .map(|r| [r[0], r[1], if r[2].is_finite() { r[2] } else { 0.0 }])
+            .collect(),
         dropped_samples: job.dropped(),
         max_sample_weight: job.max_weight(),
         message: job.message.clone(),
@@ -42,10 +47,23 @@ pub fn job_status(job: &JobRun, now: u64, workers: u32, max_failures: u32) -> Jo
         worker_failures: job
             .failures
             .iter()
-            .map(|(id, f)| WorkerFailures { worker_id: id.clone(), name: f.name.clone(), failures: f.count, blocked: f.count >= max_failures })
+            .map(|(id, f)| WorkerFailures {
+                worker_id: id.clone(),
+                name: f.name.clone(),
+                failures: f.count,
+                blocked: f.count >= max_failures,
+            })
             .collect(),
         renderers: job.renderers.clone(),
-        contributions: job.contributions.iter().map(|(id, (name, n))| WorkerContribution { worker_id: id.clone(), name: name.clone(), samples: *n }).collect(),
+        contributions: job
+            .contributions
+            .iter()
+            .map(|(id, (name, n))| WorkerContribution {
+                worker_id: id.clone(),
+                name: name.clone(),
+                samples: *n,
+            })
+            .collect(),
         frames: (0..job.frame_count()).map(|i| frame_status(job, i)).collect(),
     }
 }

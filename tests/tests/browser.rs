@@ -42,7 +42,12 @@ pub fn require() -> (PathBuf, PathBuf) {
 
 impl Browser {
     pub async fn start(driver: &Path, chromium: &Path, downloads: PathBuf) -> Browser {
-        let mut child = Command::new(driver).arg("--port=0").stdout(Stdio::piped()).stderr(Stdio::null()).spawn().expect("start chromedriver");
+        let mut child = Command::new(driver)
+            .arg("--port=0")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start chromedriver");
         let stdout = child.stdout.take().expect("piped");
         let proc = Proc(child);
         // Keep reading its log after the port line: a closed pipe would kill it on its next write.
@@ -54,7 +59,9 @@ impl Browser {
                 }
             }
         });
-        let port = rx.recv_timeout(Duration::from_secs(20)).expect("chromedriver says which port it listens on");
+        let port = rx
+            .recv_timeout(Duration::from_secs(20))
+            .expect("chromedriver says which port it listens on");
         let caps = json!({
             "goog:chromeOptions": {
                 "binary": chromium,
@@ -64,13 +71,20 @@ impl Browser {
         });
         let Value::Object(caps) = caps else { unreachable!() };
         let http = hyper_util::client::legacy::connect::HttpConnector::new();
-        let client = ClientBuilder::new(http).capabilities(caps).connect(&format!("http://127.0.0.1:{port}")).await.expect("WebDriver session");
+        let client = ClientBuilder::new(http)
+            .capabilities(caps)
+            .connect(&format!("http://127.0.0.1:{port}"))
+            .await
+            .expect("WebDriver session");
         Browser { client, downloads, _driver: proc }
     }
 
     /// Runs `script` (a function body) in the page and returns its value.
     pub async fn js(&self, script: &str) -> Value {
-        self.client.execute(script, vec![]).await.unwrap_or_else(|e| panic!("script failed: {e}\n{script}"))
+        self.client
+            .execute(script, vec![])
+            .await
+            .unwrap_or_else(|e| panic!("script failed: {e}\n{script}"))
     }
 
     pub async fn fill(&self, css: &str, text: &str) {
@@ -80,7 +94,13 @@ impl Browser {
     }
 
     pub async fn click(&self, css: &str) {
-        self.client.find(Locator::Css(css)).await.unwrap_or_else(|e| panic!("{css}: {e}")).click().await.unwrap();
+        self.client
+            .find(Locator::Css(css))
+            .await
+            .unwrap_or_else(|e| panic!("{css}: {e}"))
+            .click()
+            .await
+            .unwrap();
     }
 
     /// Evaluates `script` every 50 ms until it returns something truthy; panics after `secs`.
@@ -91,7 +111,10 @@ impl Browser {
             if !(v.is_null() || v == json!(false) || v == json!("") || v == json!(0)) {
                 return v;
             }
-            assert!(Instant::now() < end, "timed out after {secs} s waiting for {what} (last: {v})");
+            assert!(
+                Instant::now() < end,
+                "timed out after {secs} s waiting for {what} (last: {v})"
+            );
             tokio::time::sleep(Duration::from_millis(50)).await;
         }
     }

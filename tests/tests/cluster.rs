@@ -47,7 +47,12 @@ impl Farm {
 
     /// With `tokens` = (client, worker), the coordinator requires them and workers send theirs.
     /// `serve_args` are added to `tessera serve`.
-    pub fn start_with(name: &str, workers: usize, tokens: Option<(&str, &str)>, serve_args: &[&str]) -> Farm {
+    pub fn start_with(
+        name: &str,
+        workers: usize,
+        tokens: Option<(&str, &str)>,
+        serve_args: &[&str],
+    ) -> Farm {
         let data = temp_dir(name);
         let _ = std::fs::remove_dir_all(&data);
         let mut farm = Farm {
@@ -76,12 +81,17 @@ impl Farm {
             cmd.env("TESSERA_CLIENT_TOKEN", c).env("TESSERA_WORKER_TOKEN", w);
         }
         let log = self.data.with_extension("coordinator.log");
-        let stderr = std::fs::OpenOptions::new().create(true).append(true).open(&log).expect("log file");
-        let mut child = cmd.stdout(Stdio::piped()).stderr(stderr).spawn().expect("start coordinator");
+        let stderr =
+            std::fs::OpenOptions::new().create(true).append(true).open(&log).expect("log file");
+        let mut child =
+            cmd.stdout(Stdio::piped()).stderr(stderr).spawn().expect("start coordinator");
         let mut line = String::new();
         BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
         let Some(url) = line.trim().strip_prefix("listening on ") else {
-            panic!("the coordinator did not start: {}", std::fs::read_to_string(&log).unwrap_or_default());
+            panic!(
+                "the coordinator did not start: {}",
+                std::fs::read_to_string(&log).unwrap_or_default()
+            );
         };
         self.url = url.to_string();
         self.coordinator = Some(Proc(child));

@@ -43,7 +43,23 @@ fn reference() -> &'static Layers {
     REFERENCE.get_or_init(|| {
         let out = temp_dir("compose-reference").join("reference.exr");
         let started = Instant::now();
-        let args = ["render", "cornell-box", "--width", "160", "--height", "160", "--spp", "256", "--seed", "7", "--tile-size", "64", "--batch-spp", "32", "-o"];
+        let args = [
+            "render",
+            "cornell-box",
+            "--width",
+            "160",
+            "--height",
+            "160",
+            "--spp",
+            "256",
+            "--seed",
+            "7",
+            "--tile-size",
+            "64",
+            "--batch-spp",
+            "32",
+            "-o",
+        ];
         run(Command::new(static_bin()).args(args).arg(&out));
         eprintln!("[compose] reference render in {:.1}s", started.elapsed().as_secs_f64());
         let l = layers(&std::fs::read(&out).unwrap());
@@ -57,7 +73,11 @@ fn rt() -> tokio::runtime::Runtime {
 }
 
 /// Polls `f` every 100 ms until it returns Some, for at most `limit`.
-async fn wait_for<T, F: Future<Output = Option<T>>>(what: &str, limit: Duration, mut f: impl FnMut() -> F) -> T {
+async fn wait_for<T, F: Future<Output = Option<T>>>(
+    what: &str,
+    limit: Duration,
+    mut f: impl FnMut() -> F,
+) -> T {
     let start = Instant::now();
     loop {
         if let Some(v) = f().await {
@@ -102,7 +122,13 @@ fn compose_three_workers_render_the_same_bits_as_tessera_render() {
     // `tessera healthcheck` works inside the image, against the coordinator and the workers
     // (their first check comes 5 s after they start).
     for c in farm.containers("coordinator").iter().chain(&farm.containers("worker")) {
-        let health = || String::from_utf8_lossy(&farm.docker(&["inspect", "-f", "{{.State.Health.Status}}", c]).stdout).trim().to_string();
+        let health = || {
+            String::from_utf8_lossy(
+                &farm.docker(&["inspect", "-f", "{{.State.Health.Status}}", c]).stdout,
+            )
+            .trim()
+            .to_string()
+        };
         let until = Instant::now() + Duration::from_secs(20);
         while health() == "starting" && Instant::now() < until {
             std::thread::sleep(Duration::from_millis(500));
@@ -124,7 +150,8 @@ fn compose_killed_and_cut_off_workers_change_nothing() {
     rt().block_on(async {
         let job = farm.client().submit(&job()).await.expect("submit");
         let busy = wait_for("three workers holding units", Duration::from_secs(30), || async {
-            let w: Vec<WorkerInfo> = farm.workers().await.into_iter().filter(|w| w.current.is_some()).collect();
+            let w: Vec<WorkerInfo> =
+                farm.workers().await.into_iter().filter(|w| w.current.is_some()).collect();
             (w.len() == 3).then_some(w)
         })
         .await;
@@ -138,7 +165,10 @@ fn compose_killed_and_cut_off_workers_change_nothing() {
         // Its unit either expired on the coordinator (a failure) or, on a loaded machine, was
         // uploaded in the instant between the snapshot above and the disconnect.
         let expired_or_landed = before.failures >= 1 || before.units_done > cut.units_done;
-        assert!(expired_or_landed && before.current.is_none(), "the cut-off worker's lease expired: {before:?} (was {cut:?})");
+        assert!(
+            expired_or_landed && before.current.is_none(),
+            "the cut-off worker's lease expired: {before:?} (was {cut:?})"
+        );
         assert!(before.last_seen_ms_ago >= 1000 * lease_s as u64, "{before:?}");
         farm.docker(&["network", "connect", &net, &cut_container]);
         // Back on the network, the same worker asks for work again (a dead connection times out within 6 s, retries back off ≤ 5 s).
@@ -154,13 +184,19 @@ fn compose_killed_and_cut_off_workers_change_nothing() {
         let m = farm.metrics().await;
         assert_eq!(m["tessera_units_merged_total"], UNITS, "{m:?}");
         assert!(m["tessera_leases_granted_total"] >= UNITS + 2.0, "{m:?}");
-        eprintln!("[compose] {test}: late results ignored (409): {}, leases granted {} for {UNITS} units", m["tessera_results_stale_total"], m["tessera_leases_granted_total"]);
+        eprintln!(
+            "[compose] {test}: late results ignored (409): {}, leases granted {} for {UNITS} units",
+            m["tessera_results_stale_total"], m["tessera_leases_granted_total"]
+        );
     });
     report(test, started);
 }
 
 fn find<'a>(workers: &'a [WorkerInfo], id: &str) -> &'a WorkerInfo {
-    workers.iter().find(|w| w.id == id).unwrap_or_else(|| panic!("worker {id} is not listed: {workers:?}"))
+    workers
+        .iter()
+        .find(|w| w.id == id)
+        .unwrap_or_else(|| panic!("worker {id} is not listed: {workers:?}"))
 }
 
 #[test]
@@ -205,7 +241,10 @@ fn compose_coordinator_restart_mid_render_resumes_from_the_volume() {
     let id = rt.block_on(async {
         let c = farm.client();
         let job = c.submit(&job()).await.expect("submit");
-        wait_for("a fifth of the job", Duration::from_secs(60), || async { (c.job(&job.id).await.ok()?.progress.fraction >= 0.2).then_some(()) }).await;
+        wait_for("a fifth of the job", Duration::from_secs(60), || async {
+            (c.job(&job.id).await.ok()?.progress.fraction >= 0.2).then_some(())
+        })
+        .await;
         job.id
     });
     farm.compose(&["restart", "-t", "10", "coordinator"]);

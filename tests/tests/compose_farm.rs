@@ -17,12 +17,21 @@ fn compose_command() -> &'static Result<Vec<String>, String> {
         let info = Command::new("docker").args(["info", "--format", "{{.ServerVersion}}"]).output();
         match info {
             Ok(o) if o.status.success() => {}
-            Ok(o) => return Err(format!("no Docker engine reachable: {}", String::from_utf8_lossy(&o.stderr).trim())),
+            Ok(o) => {
+                return Err(format!(
+                    "no Docker engine reachable: {}",
+                    String::from_utf8_lossy(&o.stderr).trim()
+                ));
+            }
             Err(e) => return Err(format!("no docker client: {e}")),
         }
         let candidates: [&[&str]; 2] = [&["docker", "compose"], &["docker-compose"]];
         for c in candidates {
-            let ok = Command::new(c[0]).args(&c[1..]).arg("version").output().is_ok_and(|o| o.status.success());
+            let ok = Command::new(c[0])
+                .args(&c[1..])
+                .arg("version")
+                .output()
+                .is_ok_and(|o| o.status.success());
             if ok {
                 return Ok(c.iter().map(|s| s.to_string()).collect());
             }
@@ -43,14 +52,21 @@ pub fn engine(test: &str) -> MutexGuard<'static, ()> {
 
 /// The static binary deploy/build-image.sh puts in the image.
 pub fn static_bin() -> PathBuf {
-    let target = std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| repo_root().join("target"));
+    let target = std::env::var("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|_| repo_root().join("target"));
     target.join("x86_64-unknown-linux-gnu/release/tessera")
 }
 
 /// Runs a command, panicking with its output if it fails.
 pub fn run(cmd: &mut Command) -> Output {
     let out = cmd.output().unwrap_or_else(|e| panic!("{cmd:?}: {e}"));
-    assert!(out.status.success(), "{cmd:?} failed: {}\n{}", String::from_utf8_lossy(&out.stderr), String::from_utf8_lossy(&out.stdout));
+    assert!(
+        out.status.success(),
+        "{cmd:?} failed: {}\n{}",
+        String::from_utf8_lossy(&out.stderr),
+        String::from_utf8_lossy(&out.stdout)
+    );
     out
 }
 
@@ -71,23 +87,41 @@ impl ComposeFarm {
     /// Builds the image, starts a coordinator and `workers` single-threaded workers, and waits
     /// until the coordinator answers from the host.
     pub fn up(name: &str, workers: usize, lease_timeout_s: u32) -> ComposeFarm {
-        let now = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+        let now =
+            std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
         let nonce = format!("{}-{}", std::process::id(), now.as_millis() % 1_000_000);
         let project = format!("tessera-e2e-{name}-{nonce}");
         let dir = temp_dir(&format!("compose-{name}"));
         let env_file = dir.join("tessera.env");
         let client_token = format!("client-{nonce}");
-        std::fs::write(&env_file, format!("TESSERA_CLIENT_TOKEN={client_token}\nTESSERA_WORKER_TOKEN=worker-{nonce}\n")).unwrap();
+        std::fs::write(
+            &env_file,
+            format!("TESSERA_CLIENT_TOKEN={client_token}\nTESSERA_WORKER_TOKEN=worker-{nonce}\n"),
+        )
+        .unwrap();
         let image = format!("tessera-e2e:{project}");
-        let mut farm = ComposeFarm { project, image, env_file, lease_timeout_s, client_token, url: String::new() };
+        let mut farm = ComposeFarm {
+            project,
+            image,
+            env_file,
+            lease_timeout_s,
+            client_token,
+            url: String::new(),
+        };
         let started = Instant::now();
         // The plain static binary .ci/run built, whatever PGO the shell exports (a profile-guided
         // build would add two builds to the test).
-        run(Command::new(repo_root().join("deploy/build-image.sh")).arg(&farm.image).env("PGO", "0"));
+        run(Command::new(repo_root().join("deploy/build-image.sh"))
+            .arg(&farm.image)
+            .env("PGO", "0"));
         eprintln!("[{}] image built in {:.1}s", farm.project, started.elapsed().as_secs_f64());
         farm.compose(&["up", "-d", "--scale", &format!("worker={workers}")]);
         farm.find_coordinator();
-        eprintln!("[{}] up with {workers} workers in {:.1}s", farm.project, started.elapsed().as_secs_f64());
+        eprintln!(
+            "[{}] up with {workers} workers in {:.1}s",
+            farm.project,
+            started.elapsed().as_secs_f64()
+        );
         farm
     }
 
@@ -121,7 +155,15 @@ impl ComposeFarm {
             let port = stdout(&self.compose(&["port", "coordinator", "7878"]));
             if !port.is_empty() && !port.ends_with(":0") {
                 self.url = format!("http://{port}");
-                let health = Command::new(static_bin()).args(["healthcheck", "--timeout", "1", "--url", &format!("{}/healthz", self.url)]).output();
+                let health = Command::new(static_bin())
+                    .args([
+                        "healthcheck",
+                        "--timeout",
+                        "1",
+                        "--url",
+                        &format!("{}/healthz", self.url),
+                    ])
+                    .output();
                 if health.is_ok_and(|o| o.status.success()) {
                     return;
                 }
@@ -143,7 +185,10 @@ impl ComposeFarm {
     /// The container whose host name (a worker's default name: the short container id) is `name`.
     pub fn container_of(&self, worker_name: &str) -> String {
         let all = self.containers("worker");
-        all.iter().find(|c| c.starts_with(worker_name)).unwrap_or_else(|| panic!("no container for worker {worker_name} in {all:?}")).clone()
+        all.iter()
+            .find(|c| c.starts_with(worker_name))
+            .unwrap_or_else(|| panic!("no container for worker {worker_name} in {all:?}"))
+            .clone()
     }
 
     pub fn docker(&self, args: &[&str]) -> Output {
@@ -161,7 +206,8 @@ impl ComposeFarm {
 
     /// The counters of /metrics, by name.
     pub async fn metrics(&self) -> HashMap<String, f64> {
-        let text = String::from_utf8(self.client().bytes("/metrics").await.expect("GET /metrics")).unwrap();
+        let text = String::from_utf8(self.client().bytes("/metrics").await.expect("GET /metrics"))
+            .unwrap();
         text.lines()
             .filter(|l| !l.starts_with('#'))
             .filter_map(|l| l.rsplit_once(' '))
@@ -175,12 +221,18 @@ impl Drop for ComposeFarm {
         if std::thread::panicking() {
             // What the containers said is the best clue to a failure.
             if let Ok(logs) = self.compose_cmd(&["logs", "--no-color", "--tail", "30"]).output() {
-                eprintln!("[{}] last logs:\n{}", self.project, String::from_utf8_lossy(&logs.stdout));
+                eprintln!(
+                    "[{}] last logs:\n{}",
+                    self.project,
+                    String::from_utf8_lossy(&logs.stdout)
+                );
             }
         }
         match self.compose_cmd(&["down", "-v", "--remove-orphans", "-t", "2"]).output() {
             Ok(o) if o.status.success() => {}
-            other => eprintln!("[{}] compose down failed, remove it by hand: {other:?}", self.project),
+            other => {
+                eprintln!("[{}] compose down failed, remove it by hand: {other:?}", self.project)
+            }
         }
         let _ = Command::new("docker").args(["rmi", "-f", &self.image]).output();
         let _ = std::fs::remove_dir_all(self.env_file.parent().unwrap());

@@ -57,7 +57,9 @@ where
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build().unwrap();
     rt.block_on(async {
         let farm = Farm::start_with(name, workers, Some((CLIENT, WORKER)), &[]);
-        let b = Arc::new(Browser::start(&driver, &chromium, temp_dir(&format!("{name}-downloads"))).await);
+        let b = Arc::new(
+            Browser::start(&driver, &chromium, temp_dir(&format!("{name}-downloads"))).await,
+        );
         let outcome = tokio::spawn(steps(b.clone(), farm)).await;
         let _ = b.client.clone().close().await;
         if let Err(e) = outcome {
@@ -69,7 +71,13 @@ where
 async fn steps(b: Arc<Browser>, mut farm: Farm) {
     let url = farm.url.clone();
     b.client.goto(&format!("{url}/")).await.expect("open the dashboard");
-    let banner = b.until("the missing-token banner", 20, r#"const e = document.getElementById("banner"); return !e.hidden && e.textContent;"#).await;
+    let banner = b
+        .until(
+            "the missing-token banner",
+            20,
+            r#"const e = document.getElementById("banner"); return !e.hidden && e.textContent;"#,
+        )
+        .await;
     assert!(banner.as_str().unwrap().contains("client token"), "{banner}");
     b.fill("#token", CLIENT).await;
     b.click("#token-form button").await;
@@ -79,16 +87,34 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
     // A bad width comes back as problem+json naming the field, shown next to it.
     b.fill("#f-width", "0").await;
     b.click("#f-submit").await;
-    let err = b.until("the inline width error", 20, r#"return document.getElementById("f-width-err").textContent;"#).await;
+    let err = b
+        .until(
+            "the inline width error",
+            20,
+            r#"return document.getElementById("f-width-err").textContent;"#,
+        )
+        .await;
     assert!(err.as_str().unwrap().contains("width must be in 1..=16384"), "{err}");
     let focus = b.js(r#"return [document.activeElement.id, document.getElementById("f-width").getAttribute("aria-invalid")];"#).await;
     assert_eq!(focus, json!(["f-width", "true"]));
     // A file that is not glTF: the upload's 422 shows at the file field.
     let bad = temp_dir("dashboard-upload").join("not-a-scene.glb");
     std::fs::write(&bad, b"certainly not glTF").unwrap();
-    b.client.find(Locator::Css("#f-file")).await.unwrap().send_keys(bad.to_str().unwrap()).await.unwrap();
+    b.client
+        .find(Locator::Css("#f-file"))
+        .await
+        .unwrap()
+        .send_keys(bad.to_str().unwrap())
+        .await
+        .unwrap();
     b.click("#f-submit").await;
-    let err = b.until("the inline upload error", 20, r#"return document.getElementById("f-file-err").textContent;"#).await;
+    let err = b
+        .until(
+            "the inline upload error",
+            20,
+            r#"return document.getElementById("f-file-err").textContent;"#,
+        )
+        .await;
     assert!(err.as_str().unwrap().contains("invalid glTF"), "{err}");
     b.js(r#"document.getElementById("f-file").value = ""; return true;"#).await;
 
@@ -96,10 +122,24 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
         b.fill(field, v).await;
     }
     b.click("#f-submit").await;
-    let hash = b.until("the job page", 20, r##"return location.hash.startsWith("#/job/") && location.hash;"##).await;
+    let hash = b
+        .until(
+            "the job page",
+            20,
+            r##"return location.hash.startsWith("#/job/") && location.hash;"##,
+        )
+        .await;
     let job_id = hash.as_str().unwrap().trim_start_matches("#/job/").to_string();
     // No worker yet: the job waits, and its preview has no samples.
-    let first = b.until("the queued job's preview", 20, &format!("{SNAPSHOT} const s = snapshot(); return s.preview && s.state === 'queued' && s;")).await;
+    let first = b
+        .until(
+            "the queued job's preview",
+            20,
+            &format!(
+                "{SNAPSHOT} const s = snapshot(); return s.preview && s.state === 'queued' && s;"
+            ),
+        )
+        .await;
     // Paused and resumed from its page while it waits.
     b.click("#j-pause").await;
     b.until("the paused job", 20, r#"return document.getElementById("j-state").textContent === "paused" && document.getElementById("j-pause").textContent === "Resume";"#).await;
@@ -110,18 +150,30 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
     let (progress, previews) = watch_to_the_end(&b).await;
     assert!(progress.windows(2).all(|w| w[0] <= w[1]), "progress never goes back: {progress:?}");
     let last = previews.last().unwrap();
-    assert_eq!((first["preview"]["mean"].as_f64(), first["preview"]["width"].as_u64()), (Some(0.0), Some(64)), "nothing merged: black");
+    assert_eq!(
+        (first["preview"]["mean"].as_f64(), first["preview"]["width"].as_u64()),
+        (Some(0.0), Some(64)),
+        "nothing merged: black"
+    );
     assert!(last["mean"].as_f64().unwrap() > 20.0, "the rendered box is not black: {last}");
     assert_ne!(first["preview"]["hash"], last["hash"], "the preview changed");
     let drawn = b.js(r##"return [document.querySelectorAll("#j-chart polyline").length, document.getElementById("j-cancel").disabled, document.getElementById("j-pause").disabled];"##).await;
-    assert_eq!(drawn, json!([1, true, true]), "the noise history is drawn; a finished job cannot be canceled or paused");
+    assert_eq!(
+        drawn,
+        json!([1, true, true]),
+        "the noise history is drawn; a finished job cannot be canceled or paused"
+    );
     let contrib = b.js(r##"return document.querySelector("#j-contrib tbody").textContent;"##).await;
     assert!(contrib.as_str().unwrap().contains("100%"), "one worker did everything: {contrib}");
 
     b.click("#j-exr").await;
     let exr = b.downloaded(&format!("{job_id}.exr"), 30).await;
     let api = Coordinator::new(&url, Some(CLIENT.into()));
-    assert_eq!(exr, api.bytes(&format!("/v1/jobs/{job_id}/image.exr")).await.unwrap(), "the download is the job's EXR");
+    assert_eq!(
+        exr,
+        api.bytes(&format!("/v1/jobs/{job_id}/image.exr")).await.unwrap(),
+        "the download is the job's EXR"
+    );
     let (img, _) = decode_exr(&exr).expect("the EXR decodes");
     assert_eq!((img.width, img.height), (64, 64));
     assert!(img.samples.iter().all(|&s| s == 32.0), "32 samples in every pixel");
@@ -130,31 +182,70 @@ async fn steps(b: Arc<Browser>, mut farm: Farm) {
 
     b.click("a[href='#/jobs']").await;
     let row = b.until("the job's row, done", 20, &format!(r#"const r = document.querySelector('tr[data-job="{job_id}"]'); return r && r.dataset.state === "done" && r.textContent;"#)).await;
-    assert!(row.as_str().unwrap().contains("100%") && row.as_str().unwrap().contains("64×64"), "{row}");
+    assert!(
+        row.as_str().unwrap().contains("100%") && row.as_str().unwrap().contains("64×64"),
+        "{row}"
+    );
     b.click("#nav-workers").await;
     let units = b.until("the worker's row", 20, r##"const r = document.querySelector("#workers tbody tr"); return r && r.cells[4].textContent;"##).await;
     assert_eq!(units, "2", "one 64×64 tile × two 16-spp batches");
-    let renderer = b.js(r##"return document.querySelector("#workers tbody tr").cells[8].textContent;"##).await;
+    let renderer =
+        b.js(r##"return document.querySelector("#workers tbody tr").cells[8].textContent;"##).await;
     assert_eq!(renderer, tessera_render::renderer_id(), "the worker's renderer id");
     // Linux workers report their resident memory with each result.
-    let memory = b.js(r##"return document.querySelector("#workers tbody tr").cells[7].textContent;"##).await;
+    let memory =
+        b.js(r##"return document.querySelector("#workers tbody tr").cells[7].textContent;"##).await;
     let memory = memory.as_str().unwrap();
-    assert!(memory.contains("MiB (peak ") && memory.ends_with("MiB)"), "the worker's memory: {memory}");
+    assert!(
+        memory.contains("MiB (peak ") && memory.ends_with("MiB)"),
+        "the worker's memory: {memory}"
+    );
 
     // A worker of another renderer beside a job this worker renders: its row says why it idles.
     let other = "tessera 0.0.0 src:000000000000 libm:00000000";
     let hello = json!({"name": "other", "threads": 1, "renderer": other});
-    let reg: Value = reqwest::Client::new().post(format!("{url}/v1/workers")).bearer_auth(WORKER).json(&hello).send().await.unwrap().json().await.unwrap();
-    let long = JobRequest { scene: "furnace".into(), width: 64, height: 64, spp: Some(1 << 20), ..JobRequest::default() };
+    let reg: Value = reqwest::Client::new()
+        .post(format!("{url}/v1/workers"))
+        .bearer_auth(WORKER)
+        .json(&hello)
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    let long = JobRequest {
+        scene: "furnace".into(),
+        width: 64,
+        height: 64,
+        spp: Some(1 << 20),
+        ..JobRequest::default()
+    };
     let long = api.submit(&long).await.unwrap();
-    let script = format!(r#"const r = document.querySelector('tr[data-worker="{}"]'); const t = r && r.cells[3].textContent; return t && t.startsWith("idle: ") && t;"#, reg["worker_id"].as_str().unwrap());
+    let script = format!(
+        r#"const r = document.querySelector('tr[data-worker="{}"]'); const t = r && r.cells[3].textContent; return t && t.startsWith("idle: ") && t;"#,
+        reg["worker_id"].as_str().unwrap()
+    );
     let idle = b.until("the other renderer's idle reason", 20, &script).await;
-    let expected = format!("idle: jobs {} are kept on renderer {} while a worker of it is live", long.id, tessera_render::renderer_id());
+    let expected = format!(
+        "idle: jobs {} are kept on renderer {} while a worker of it is live",
+        long.id,
+        tessera_render::renderer_id()
+    );
     assert_eq!(idle, expected);
     // The running job deleted from its page (the confirmation answered yes): gone from the list
     // and from the coordinator.
-    b.js(&format!(r##"location.hash = "#/job/{}"; window.confirm = () => true; return true;"##, long.id)).await;
-    b.until("the job to delete", 20, &format!(r#"return document.getElementById("j-id").textContent === "{}";"#, long.id)).await;
+    b.js(&format!(
+        r##"location.hash = "#/job/{}"; window.confirm = () => true; return true;"##,
+        long.id
+    ))
+    .await;
+    b.until(
+        "the job to delete",
+        20,
+        &format!(r#"return document.getElementById("j-id").textContent === "{}";"#, long.id),
+    )
+    .await;
     b.click("#j-delete").await;
     b.until("the list without it", 20, &format!(r##"return location.hash === "#/jobs" && document.querySelector('tr[data-job="{job_id}"]') && !document.querySelector('tr[data-job="{}"]');"##, long.id)).await;
     assert!(api.job(&long.id).await.is_err(), "deleted on the coordinator");
@@ -206,7 +297,12 @@ async fn screenshots(b: Arc<Browser>, farm: Farm) {
     api.wait(&small.id, |_| {}).await.unwrap();
     let canceled = api.submit(&job("glossy", 192, Some(1024), None)).await.unwrap();
     tokio::time::sleep(Duration::from_millis(1500)).await;
-    let cancel = reqwest::Client::new().delete(format!("{}/v1/jobs/{}", farm.url, canceled.id)).bearer_auth(CLIENT).send().await.unwrap();
+    let cancel = reqwest::Client::new()
+        .delete(format!("{}/v1/jobs/{}", farm.url, canceled.id))
+        .bearer_auth(CLIENT)
+        .send()
+        .await
+        .unwrap();
     assert!(cancel.status().is_success());
     let main = api.submit(&job("cornell-box", 256, Some(4096), Some(1e-3))).await.unwrap();
     api.submit(&job("punctual", 160, Some(256), None)).await.unwrap();
@@ -215,13 +311,23 @@ async fn screenshots(b: Arc<Browser>, farm: Farm) {
     b.fill("#token", CLIENT).await;
     b.click("#token-form button").await;
     b.client.set_window_size(1280, 760).await.unwrap();
-    b.until("a running job in the list", 60, r#"return document.querySelector('tr[data-state="running"]') !== null;"#).await;
+    b.until(
+        "a running job in the list",
+        60,
+        r#"return document.querySelector('tr[data-state="running"]') !== null;"#,
+    )
+    .await;
     tokio::time::sleep(Duration::from_secs(4)).await;
     let docs = crate::harness::repo_root().join("docs");
     b.screenshot(&docs.join("dashboard-jobs.png")).await;
 
     b.client.set_window_size(1280, 1400).await.unwrap();
     b.client.goto(&format!("{}/#/job/{}", farm.url, main.id)).await.unwrap();
-    b.until("the job half way", 600, r#"return document.getElementById("j-progress").value >= 50;"#).await;
+    b.until(
+        "the job half way",
+        600,
+        r#"return document.getElementById("j-progress").value >= 50;"#,
+    )
+    .await;
     b.screenshot(&docs.join("dashboard-job.png")).await;
 }

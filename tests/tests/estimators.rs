@@ -1,8 +1,8 @@
 //! All four estimators render the same Cornell box; MIS does it with the least variance.
-use tessera_render::tracer::RenderOptions;
 use crate::harness::{channel, independent_settings, region_mean};
-use tessera_server::bundled;
+use tessera_render::tracer::RenderOptions;
 use tessera_render::tracer::{Estimator, PixelSums, render_tile};
+use tessera_server::bundled;
 
 const SIZE: u32 = 32;
 
@@ -24,7 +24,8 @@ fn per_sample_variance(pixels: &[PixelSums]) -> f64 {
 #[test]
 fn all_estimators_agree_on_the_cornell_box_and_mis_has_the_lowest_variance() {
     let spp = 512;
-    let images: Vec<(Estimator, Vec<PixelSums>)> = Estimator::ALL.into_iter().map(|e| (e, render(e, spp))).collect();
+    let images: Vec<(Estimator, Vec<PixelSums>)> =
+        Estimator::ALL.into_iter().map(|e| (e, render(e, spp))).collect();
     let reference = &images.iter().find(|(e, _)| *e == Estimator::Mis).unwrap().1;
     let regions = 4;
     let r = (SIZE / regions) as usize;

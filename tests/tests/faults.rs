@@ -52,14 +52,35 @@ fn killing_workers_and_the_coordinator_mid_render_changes_no_bit() {
     let dir = temp_dir("faults-reference");
     let reference = dir.join("reference.exr");
     let out = Command::new(tessera_bin())
-        .args(["render", "cornell-box", "--spp", "128", "--width", "128", "--height", "128", "--seed", "7", "--tile-size", "32", "--batch-spp", "8", "-o"])
+        .args([
+            "render",
+            "cornell-box",
+            "--spp",
+            "128",
+            "--width",
+            "128",
+            "--height",
+            "128",
+            "--seed",
+            "7",
+            "--tile-size",
+            "32",
+            "--batch-spp",
+            "8",
+            "-o",
+        ])
         .arg(&reference)
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let reference = pixels(&std::fs::read(&reference).unwrap());
 
-    let mut farm = Farm::start_with("faults", 3, None, &["--lease-timeout", "2", "--checkpoint-interval", "0.2"]);
+    let mut farm = Farm::start_with(
+        "faults",
+        3,
+        None,
+        &["--lease-timeout", "2", "--checkpoint-interval", "0.2"],
+    );
     let rt = rt();
     let exr = rt.block_on(async {
         let id = farm.client().submit(&req).await.unwrap().id;
@@ -71,7 +92,11 @@ fn killing_workers_and_the_coordinator_mid_render_changes_no_bit() {
         farm.kill_worker(1);
         farm.add_worker();
         let before = wait_for(&farm, &id, progressed(0.55)).await;
-        assert_eq!(before.state, JobState::Running, "the job must still be running when the coordinator dies");
+        assert_eq!(
+            before.state,
+            JobState::Running,
+            "the job must still be running when the coordinator dies"
+        );
         farm.crash_and_restart_coordinator();
         let resumed = farm.client().job(&id).await.expect("the job survives the restart");
         assert!(resumed.progress.samples_done > 0.0, "checkpointed samples survive: {resumed:?}");
@@ -79,7 +104,12 @@ fn killing_workers_and_the_coordinator_mid_render_changes_no_bit() {
         assert_eq!(done.state, JobState::Done, "{done:?}");
         assert_eq!(done.progress.samples_done, 128.0, "every sample counted exactly once");
         let credited: u64 = done.contributions.iter().map(|c| c.samples).sum();
-        assert_eq!(credited, 128 * 128 * 128, "workers are credited once per merged sample, across the restart: {:?}", done.contributions);
+        assert_eq!(
+            credited,
+            128 * 128 * 128,
+            "workers are credited once per merged sample, across the restart: {:?}",
+            done.contributions
+        );
         farm.client().bytes(&format!("/v1/jobs/{id}/image.exr")).await.unwrap()
     });
     let got = pixels(&exr);
@@ -103,20 +133,34 @@ fn finished_jobs_and_their_images_survive_a_restart() {
         assert_eq!(after.progress.samples_done, done.progress.samples_done);
         assert_eq!(after.history, done.history, "the noise history is kept");
         assert_eq!(after.contributions, done.contributions, "so are the workers' shares");
-        assert_eq!(c.bytes(&format!("/v1/jobs/{}/image.exr", job.id)).await.unwrap(), exr, "the same file");
+        assert_eq!(
+            c.bytes(&format!("/v1/jobs/{}/image.exr", job.id)).await.unwrap(),
+            exr,
+            "the same file"
+        );
     });
 }
 
 #[test]
 fn fifty_concurrent_jobs_survive_random_worker_kills_with_exact_sample_counts() {
-    let mut farm = Farm::start_with("soak", 4, None, &["--lease-timeout", "1", "--checkpoint-interval", "0.2"]);
+    let mut farm = Farm::start_with(
+        "soak",
+        4,
+        None,
+        &["--lease-timeout", "1", "--checkpoint-interval", "0.2"],
+    );
     let rt = rt();
     let t0 = Instant::now();
     rt.block_on(async {
         let c = farm.client();
         let mut ids = Vec::new();
         for i in 0..50u32 {
-            let req = JobRequest { seed: Some(i as u64), tile_size: Some(16), batch_spp: Some(4), ..cornell(32 + (i % 3) * 8, 8 + (i % 4) * 8) };
+            let req = JobRequest {
+                seed: Some(i as u64),
+                tile_size: Some(16),
+                batch_spp: Some(4),
+                ..cornell(32 + (i % 3) * 8, 8 + (i % 4) * 8)
+            };
             ids.push((c.submit(&req).await.unwrap().id, req));
         }
         // Kills at fixed points of overall progress (5 %, 10 %, … 40 %), so how fast the farm
@@ -130,7 +174,8 @@ fn fifty_concurrent_jobs_survive_random_worker_kills_with_exact_sample_counts() 
                 break;
             }
             assert!(t0.elapsed() < Duration::from_secs(100), "the soak did not finish in time");
-            let progress = jobs.iter().map(|j| j.progress.fraction).sum::<f64>() / jobs.len() as f64;
+            let progress =
+                jobs.iter().map(|j| j.progress.fraction).sum::<f64>() / jobs.len() as f64;
             while kills < 8 && progress >= 0.05 * f64::from(kills + 1) {
                 rng ^= rng << 13;
                 rng ^= rng >> 7;
@@ -149,13 +194,19 @@ fn fifty_concurrent_jobs_survive_random_worker_kills_with_exact_sample_counts() 
             let exr = c.bytes(&format!("/v1/jobs/{id}/image.exr")).await.unwrap();
             let (_, _, samples) = pixels(&exr);
             assert_eq!(samples.len(), (req.width * req.height) as usize);
-            assert!(samples.iter().all(|&s| s == spp), "job {id}: a pixel's sample count differs from {spp}");
+            assert!(
+                samples.iter().all(|&s| s == spp),
+                "job {id}: a pixel's sample count differs from {spp}"
+            );
         }
     });
     println!("soak: 50 jobs, 4 workers, done in {:.1} s", t0.elapsed().as_secs_f64());
 }
 
-async fn futures_join(c: &tessera_server::client::Coordinator, ids: &[(String, JobRequest)]) -> Vec<Job> {
+async fn futures_join(
+    c: &tessera_server::client::Coordinator,
+    ids: &[(String, JobRequest)],
+) -> Vec<Job> {
     let mut out = Vec::new();
     for (id, _) in ids {
         out.push(c.job(id).await.unwrap());

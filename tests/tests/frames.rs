@@ -40,7 +40,8 @@ fn eight_frames_on_three_workers_match_each_frame_rendered_alone() {
         assert_eq!(job.state, JobState::Done, "{job:?}");
         let mut frames = Vec::new();
         for n in 0..8 {
-            frames.push(c.bytes(&format!("/v1/jobs/{}/frames/{n}/image.exr", job.id)).await.unwrap());
+            frames
+                .push(c.bytes(&format!("/v1/jobs/{}/frames/{n}/image.exr", job.id)).await.unwrap());
         }
         (job, frames)
     });
@@ -56,15 +57,43 @@ fn eight_frames_on_three_workers_match_each_frame_rendered_alone() {
     let _ = std::fs::create_dir_all(&dir);
     for n in 0..8u32 {
         let out = Command::new(tessera_bin())
-            .args(["render", SCENE, "--spp", &SPP.to_string(), "--width", &SIZE.0.to_string(), "--height", &SIZE.1.to_string()])
-            .args(["--seed", "7", "--tile-size", "16", "--batch-spp", "8", "--threads", "1", "--frames", &format!("{n}..{n}"), "-o"])
+            .args([
+                "render",
+                SCENE,
+                "--spp",
+                &SPP.to_string(),
+                "--width",
+                &SIZE.0.to_string(),
+                "--height",
+                &SIZE.1.to_string(),
+            ])
+            .args([
+                "--seed",
+                "7",
+                "--tile-size",
+                "16",
+                "--batch-spp",
+                "8",
+                "--threads",
+                "1",
+                "--frames",
+                &format!("{n}..{n}"),
+                "-o",
+            ])
             .arg(dir.join("alone.exr"))
             .output()
             .unwrap();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        let alone = std::fs::read(dir.join(format!("alone_{n:04}.exr"))).expect("numbered output file");
-        assert!(pixels(&alone) == pixels(&farm_frames[n as usize]), "frame {n}: farm vs rendered alone");
+        let alone =
+            std::fs::read(dir.join(format!("alone_{n:04}.exr"))).expect("numbered output file");
+        assert!(
+            pixels(&alone) == pixels(&farm_frames[n as usize]),
+            "frame {n}: farm vs rendered alone"
+        );
     }
     // The animation moves something: the first and last frames differ.
-    assert!(pixels(&farm_frames[0]).0 != pixels(&farm_frames[7]).0, "frames 0 and 7 are the same image");
+    assert!(
+        pixels(&farm_frames[0]).0 != pixels(&farm_frames[7]).0,
+        "frames 0 and 7 are the same image"
+    );
 }

@@ -35,7 +35,9 @@ fn built_bins() -> &'static Path {
         cmd.arg(if release { "--release" } else { "--profile=test" });
         let status = cmd.status().expect("run cargo build");
         assert!(status.success(), "building the workspace's binaries failed");
-        let target = std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| repo_root().join("target"));
+        let target = std::env::var("CARGO_TARGET_DIR")
+            .map(PathBuf::from)
+            .unwrap_or_else(|_| repo_root().join("target"));
         target.join(if release { "release" } else { "debug" })
     })
 }
@@ -47,7 +49,14 @@ pub fn temp_dir(name: &str) -> PathBuf {
 }
 
 /// Mean of the pixel means over a rectangle, and the standard error of that mean, per channel.
-pub fn region_mean(pixels: &[(f64, f64)], width: usize, x0: usize, y0: usize, w: usize, h: usize) -> (f64, f64) {
+pub fn region_mean(
+    pixels: &[(f64, f64)],
+    width: usize,
+    x0: usize,
+    y0: usize,
+    w: usize,
+    h: usize,
+) -> (f64, f64) {
     let (mut m, mut v) = (0.0, 0.0);
     for y in y0..y0 + h {
         for x in x0..x0 + w {
@@ -66,7 +75,11 @@ pub fn channel(pixels: &[PixelSums], c: usize) -> Vec<(f64, f64)> {
 }
 
 /// Cornell-box render settings with independent samples, so the measured spread is a valid error bar.
-pub fn independent_settings(size: (u32, u32), seed: u64, estimator: tessera_render::tracer::Estimator) -> tessera_render::tracer::RenderSettings {
+pub fn independent_settings(
+    size: (u32, u32),
+    seed: u64,
+    estimator: tessera_render::tracer::Estimator,
+) -> tessera_render::tracer::RenderSettings {
     use tessera_render::tracer::{RenderSettings, integrator::PathSettings, sampler::SamplerKind};
     RenderSettings {
         width: size.0,

@@ -1,10 +1,10 @@
 //! End-to-end tests: one binary, one module per capability.
 mod accuracy;
-mod cluster;
 mod browser;
-mod dashboard;
+mod cluster;
 mod compose;
 mod compose_farm;
+mod dashboard;
 mod estimators;
 mod farm;
 mod faults;

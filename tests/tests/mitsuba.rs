@@ -1,10 +1,10 @@
 //! Bundled scenes against an independent renderer: Mitsuba 3's reference images
 //! (tests/reference/, made by make_reference.py from the same glTF) must agree with ours.
-use tessera_render::tracer::RenderOptions;
 use crate::harness::{channel, independent_settings, region_mean, repo_root};
+use tessera_render::tracer::RenderOptions;
+use tessera_render::tracer::{Estimator, Scene, render_tile};
 use tessera_server::bundled;
 use tessera_server::output::decode_exr;
-use tessera_render::tracer::{Estimator, Scene, render_tile};
 
 /// Image means, and every 16×16 region, within 4σ of the reference, σ combining both images'
 /// standard errors (each per-pixel variance is estimated without bias: our samples are
@@ -15,15 +15,23 @@ fn matches_mitsuba(scene: &Scene, reference: &str, spp: u32) {
     let (reference, _) = decode_exr(&bytes).expect("decode reference");
     let (w, h) = (reference.width, reference.height);
     let s = independent_settings((w as u32, h as u32), 5, Estimator::Mis);
-    let ours = render_tile(scene, &s, s.full_frame(), 0..spp, &RenderOptions::default()).unwrap().pixels;
+    let ours =
+        render_tile(scene, &s, s.full_frame(), 0..spp, &RenderOptions::default()).unwrap().pixels;
     for c in 0..3 {
-        let ref_px: Vec<(f64, f64)> =
-            reference.rgb.iter().zip(&reference.variance).map(|(m, v)| (m[c] as f64, v[c] as f64)).collect();
+        let ref_px: Vec<(f64, f64)> = reference
+            .rgb
+            .iter()
+            .zip(&reference.variance)
+            .map(|(m, v)| (m[c] as f64, v[c] as f64))
+            .collect();
         let our_px = channel(&ours, c);
         let (mo, so) = region_mean(&our_px, w, 0, 0, w, h);
         let (mr, sr) = region_mean(&ref_px, w, 0, 0, w, h);
         let z = (mo - mr) / (so * so + sr * sr).sqrt();
-        eprintln!("channel {c}: image mean {mo:.6} ± {so:.1e} vs Mitsuba {mr:.6} ± {sr:.1e} ({:+.3}%, z {z:+.2})", (mo / mr - 1.0) * 100.0);
+        eprintln!(
+            "channel {c}: image mean {mo:.6} ± {so:.1e} vs Mitsuba {mr:.6} ± {sr:.1e} ({:+.3}%, z {z:+.2})",
+            (mo / mr - 1.0) * 100.0
+        );
         assert!(z.abs() <= 4.0, "channel {c}: image mean {mo} vs Mitsuba {mr}: {z:+.2}σ");
         let r = 16;
         for ry in 0..h / r {
@@ -31,7 +39,10 @@ fn matches_mitsuba(scene: &Scene, reference: &str, spp: u32) {
                 let (mo, so) = region_mean(&our_px, w, rx * r, ry * r, r, r);
                 let (mr, sr) = region_mean(&ref_px, w, rx * r, ry * r, r, r);
                 let sigma = (so * so + sr * sr).sqrt();
-                assert!((mo - mr).abs() <= 4.0 * sigma + 1e-9, "channel {c} region ({rx},{ry}): {mo} vs Mitsuba {mr} (σ {sigma})");
+                assert!(
+                    (mo - mr).abs() <= 4.0 * sigma + 1e-9,
+                    "channel {c} region ({rx},{ry}): {mo} vs Mitsuba {mr} (σ {sigma})"
+                );
             }
         }
     }

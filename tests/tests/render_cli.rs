@@ -8,7 +8,19 @@ fn render_writes_an_exr_with_every_layer_and_a_preview() {
     let dir = temp_dir("render");
     let (exr, png) = (dir.join("cb.exr"), dir.join("cb.png"));
     let out = Command::new(tessera_bin())
-        .args(["render", "cornell-box", "--spp", "8", "--width", "48", "--height", "32", "--seed", "3", "-o"])
+        .args([
+            "render",
+            "cornell-box",
+            "--spp",
+            "8",
+            "--width",
+            "48",
+            "--height",
+            "32",
+            "--seed",
+            "3",
+            "-o",
+        ])
         .arg(&exr)
         .arg("--preview")
         .arg(&png)
@@ -17,10 +29,17 @@ fn render_writes_an_exr_with_every_layer_and_a_preview() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("samples/s"), "prints throughput: {stdout}");
-    assert!(stdout.contains("scene load + BVH build"), "prints what preparing the scene cost: {stdout}");
+    assert!(
+        stdout.contains("scene load + BVH build"),
+        "prints what preparing the scene cost: {stdout}"
+    );
     let (img, meta) = decode_exr(&std::fs::read(&exr).unwrap()).unwrap();
     let digest = tessera_server::output::files_digest(std::slice::from_ref(&exr)).unwrap();
-    assert_eq!(stdout.lines().last(), Some(format!("pixels sha256: {digest}").as_str()), "ends with the pixels' digest");
+    assert_eq!(
+        stdout.lines().last(),
+        Some(format!("pixels sha256: {digest}").as_str()),
+        "ends with the pixels' digest"
+    );
     assert_eq!((img.width, img.height), (48, 32));
     assert!(img.samples.iter().all(|&s| s == 8.0));
     assert!(img.rgb.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
@@ -32,7 +51,11 @@ fn render_writes_an_exr_with_every_layer_and_a_preview() {
     // `auto`, settled when the job was accepted: the Cornell box's one quad is chosen by power.
     assert!(matches!(get("tessera.light_sampler"), Some(MetaValue::Text(ref s)) if s == "power"));
     assert!(get("tessera.render_time_s").is_some());
-    assert_eq!(get("tessera.renderers"), Some(MetaValue::Text(renderer_id(None))), "the one renderer, as `--version` names it");
+    assert_eq!(
+        get("tessera.renderers"),
+        Some(MetaValue::Text(renderer_id(None))),
+        "the one renderer, as `--version` names it"
+    );
     let preview = image::open(&png).expect("preview decodes");
     assert_eq!((preview.width(), preview.height()), (48, 32));
 }
@@ -74,7 +97,10 @@ fn renderer_id(tunables: Option<&str>) -> String {
     let out = command.output().expect("run tessera --version");
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
-    let id = text.lines().find_map(|l| l.strip_prefix("renderer: ")).unwrap_or_else(|| panic!("no renderer line in {text:?}"));
+    let id = text
+        .lines()
+        .find_map(|l| l.strip_prefix("renderer: "))
+        .unwrap_or_else(|| panic!("no renderer line in {text:?}"));
     id.to_string()
 }
 
@@ -95,9 +121,14 @@ fn a_cpu_without_avx2_or_fma_renders_the_same_bits() {
     // lobe), pow (sRGB textures, decoded at load).
     for scene in ["cornell-box", "glossy", "absorption", "phong", "textured", "depth-of-field"] {
         let render = |tunables: Option<&str>| {
-            let exr = dir.join(format!("{scene}-{}.exr", if tunables.is_some() { "sse2" } else { "native" }));
+            let exr = dir.join(format!(
+                "{scene}-{}.exr",
+                if tunables.is_some() { "sse2" } else { "native" }
+            ));
             let mut command = Command::new(tessera_bin());
-            command.args(["render", scene, "--spp", "4", "--width", "64", "--height", "64", "-o"]).arg(&exr);
+            command
+                .args(["render", scene, "--spp", "4", "--width", "64", "--height", "64", "-o"])
+                .arg(&exr);
             match tunables {
                 Some(t) => command.env("GLIBC_TUNABLES", t),
                 None => command.env_remove("GLIBC_TUNABLES"),
@@ -108,7 +139,10 @@ fn a_cpu_without_avx2_or_fma_renders_the_same_bits() {
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
             (bits(img.rgb.as_flattened()), bits(img.variance.as_flattened()), bits(&img.samples))
         };
-        assert!(render(None) == render(Some(WITHOUT_FMA)), "{scene}: the image depends on the CPU's libm variants");
+        assert!(
+            render(None) == render(Some(WITHOUT_FMA)),
+            "{scene}: the image depends on the CPU's libm variants"
+        );
     }
 }
 
@@ -124,13 +158,19 @@ fn with_stdout_closed(mut command: Command) -> std::process::Output {
 fn a_reader_that_has_gone_ends_render_and_bench_without_a_panic() {
     let dir = temp_dir("closed-stdout");
     let mut render = Command::new(tessera_bin());
-    render.args(["render", "cornell-box", "--spp", "1", "--width", "16", "--height", "16", "-o"]).arg(dir.join("cb.exr"));
+    render
+        .args(["render", "cornell-box", "--spp", "1", "--width", "16", "--height", "16", "-o"])
+        .arg(dir.join("cb.exr"));
     let mut bench = Command::new(crate::harness::tessera_bench_bin());
     bench.args(["effects", "--size", "8", "--spp", "1", "--repeats", "1"]);
     for (name, command) in [("tessera render", render), ("tessera-bench effects", bench)] {
         let out = with_stdout_closed(command);
         let err = String::from_utf8_lossy(&out.stderr);
-        assert!(out.status.success() && !err.contains("panicked"), "{name}: {:?}\n{err}", out.status);
+        assert!(
+            out.status.success() && !err.contains("panicked"),
+            "{name}: {:?}\n{err}",
+            out.status
+        );
     }
     assert!(dir.join("cb.exr").exists(), "the render's file is written before its result lines");
 }
@@ -147,7 +187,9 @@ fn a_bench_whose_reader_goes_mid_study_leaves_no_scratch_dir() {
     // The host line comes before the study's coordinator (and its data directory) starts; the
     // reader goes after it, as `| head -1` would, so the study's first figure meets a closed pipe.
     let mut first = String::new();
-    std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut first).expect("first line");
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .expect("first line");
     assert!(first.starts_with("host: "), "{first}");
     let scratch = std::env::temp_dir().join(format!("tessera-bench-rt-{}", child.id()));
     let out = child.wait_with_output().expect("wait");

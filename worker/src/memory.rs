@@ -5,8 +5,8 @@
 //! Also a hook ([`on_prepare`]) through which the process that links the worker learns what kind
 //! of frame scene it is about to prepare: the allocator is the binary's choice, not this crate's,
 //! and how long freed pages should stay resident depends on what comes next (`tessera_server::purge`).
-use tessera_render::scene::Preparation;
 use std::sync::OnceLock;
+use tessera_render::scene::Preparation;
 
 /// Resident memory of this process, in bytes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -25,7 +25,9 @@ pub fn process_memory() -> Option<ProcessMemory> {
 /// VmRSS and VmHWM of a /proc/<pid>/status text (given in kB, which the kernel means as KiB).
 fn parse_status(status: &str) -> Option<ProcessMemory> {
     let kib = |key: &str| -> Option<u64> {
-        status.lines().find_map(|l| l.strip_prefix(key)?.trim().strip_suffix("kB")?.trim().parse::<u64>().ok())
+        status.lines().find_map(|l| {
+            l.strip_prefix(key)?.trim().strip_suffix("kB")?.trim().parse::<u64>().ok()
+        })
     };
     Some(ProcessMemory { rss_bytes: kib("VmRSS:")? << 10, peak_rss_bytes: kib("VmHWM:")? << 10 })
 }
@@ -54,7 +56,10 @@ mod tests {
     #[test]
     fn reads_resident_and_peak_from_a_status_text() {
         let status = "Name:\ttessera\nVmPeak:\t 9000 kB\nVmHWM:\t    2048 kB\nVmRSS:\t    1024 kB\nThreads:\t3\n";
-        assert_eq!(parse_status(status), Some(ProcessMemory { rss_bytes: 1 << 20, peak_rss_bytes: 2 << 20 }));
+        assert_eq!(
+            parse_status(status),
+            Some(ProcessMemory { rss_bytes: 1 << 20, peak_rss_bytes: 2 << 20 })
+        );
     }
 
     #[test]

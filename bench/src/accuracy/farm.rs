@@ -47,14 +47,20 @@ pub struct FarmRow {
 }
 
 pub fn run(options: &FarmOptions, seed: u64) -> anyhow::Result<Vec<FarmRow>> {
-    anyhow::ensure!(options.farm_size > 0 && options.farm_noise > 0.0 && options.farm_max_spp > 0, "--farm-size, --farm-noise and --farm-max-spp must be positive");
+    anyhow::ensure!(
+        options.farm_size > 0 && options.farm_noise > 0.0 && options.farm_max_spp > 0,
+        "--farm-size, --farm-noise and --farm-max-spp must be positive"
+    );
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let rt = tokio::runtime::Runtime::new()?;
     let mut rows = Vec::new();
     for &workers in &options.farm_workers {
         for &tile in &options.farm_tiles {
             for &batch in &options.farm_batches {
-                anyhow::ensure!(workers > 0 && tile > 0 && batch > 0, "farm workers, tiles and batches must be positive");
+                anyhow::ensure!(
+                    workers > 0 && tile > 0 && batch > 0,
+                    "farm workers, tiles and batches must be positive"
+                );
                 let threads_each = (cores / workers).max(1);
                 let row = one_job(&rt, options, seed, workers, threads_each, tile, batch)?;
                 eprintln!(
@@ -68,8 +74,18 @@ pub fn run(options: &FarmOptions, seed: u64) -> anyhow::Result<Vec<FarmRow>> {
     Ok(rows)
 }
 
-fn one_job(rt: &tokio::runtime::Runtime, o: &FarmOptions, seed: u64, workers: usize, threads_each: usize, tile: u32, batch: u32) -> anyhow::Result<FarmRow> {
-    let scratch = tessera_server::scratch::ScratchDir::new(&format!("accuracy-farm-{workers}-{tile}-{batch}"));
+fn one_job(
+    rt: &tokio::runtime::Runtime,
+    o: &FarmOptions,
+    seed: u64,
+    workers: usize,
+    threads_each: usize,
+    tile: u32,
+    batch: u32,
+) -> anyhow::Result<FarmRow> {
+    let scratch = tessera_server::scratch::ScratchDir::new(&format!(
+        "accuracy-farm-{workers}-{tile}-{batch}"
+    ));
     let req = JobRequest {
         scene: "cornell-box".into(),
         width: o.farm_size,
@@ -82,12 +98,21 @@ fn one_job(rt: &tokio::runtime::Runtime, o: &FarmOptions, seed: u64, workers: us
         ..JobRequest::default()
     };
     let threads = vec![threads_each; workers];
-    let done = rt.block_on(tessera_server::local::with_local_workers(scratch.path(), &threads, |c| async move {
-        let job = c.submit(&req).await?;
-        c.wait(&job.id, |_| {}).await
-    }));
+    let done = rt.block_on(tessera_server::local::with_local_workers(
+        scratch.path(),
+        &threads,
+        |c| async move {
+            let job = c.submit(&req).await?;
+            c.wait(&job.id, |_| {}).await
+        },
+    ));
     let done = done?;
-    anyhow::ensure!(done.state == JobState::Done, "farm job ended {:?}: {}", done.state, done.message.unwrap_or_default());
+    anyhow::ensure!(
+        done.state == JobState::Done,
+        "farm job ended {:?}: {}",
+        done.state,
+        done.message.unwrap_or_default()
+    );
     let tiles = (o.farm_size.div_ceil(tile) as f64).powi(2);
     Ok(FarmRow {
         workers,

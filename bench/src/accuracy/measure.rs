@@ -4,9 +4,9 @@
 //! Rendering is progressive: sample indices [0, 1), [1, 2), [2, 4), … are rendered in turn and
 //! their sums added. Randomness is addressed by sample index, so the sums after [0, n) are
 //! exactly those of one n-spp render, and the whole ladder costs what its last rung costs.
-use tessera_render::tracer::RenderOptions;
 use super::reference::Reference;
 use std::time::Instant;
+use tessera_render::tracer::RenderOptions;
 use tessera_render::tracer::integrator::PathSettings;
 use tessera_render::tracer::sampler::SamplerKind;
 use tessera_render::tracer::{Estimator, PixelSums, RenderSettings, Roulette, Scene, render_tile};
@@ -25,7 +25,9 @@ impl Config {
         let mut out = Vec::new();
         for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
             for roulette in [true, false] {
-                for estimator in [Estimator::Mis, Estimator::Light, Estimator::Bsdf, Estimator::Naive] {
+                for estimator in
+                    [Estimator::Mis, Estimator::Light, Estimator::Bsdf, Estimator::Naive]
+                {
                     out.push(Config { estimator, sampler, roulette });
                 }
             }
@@ -34,7 +36,12 @@ impl Config {
     }
 
     pub fn label(&self) -> String {
-        format!("{} {} rr {}", self.estimator.name(), self.sampler.name(), if self.roulette { "on" } else { "off" })
+        format!(
+            "{} {} rr {}",
+            self.estimator.name(),
+            self.sampler.name(),
+            if self.roulette { "on" } else { "off" }
+        )
     }
 
     pub fn settings(&self, size: u32, seed: u64) -> RenderSettings {
@@ -69,14 +76,26 @@ pub struct Budget {
 }
 
 /// Renders `settings` at 1, 2, 4, … spp within `budget`, measuring relMSE against `reference`.
-pub fn converge(scene: &Scene, settings: &RenderSettings, reference: &Reference, budget: Budget) -> Result<Vec<Point>, String> {
+pub fn converge(
+    scene: &Scene,
+    settings: &RenderSettings,
+    reference: &Reference,
+    budget: Budget,
+) -> Result<Vec<Point>, String> {
     let mut sums = vec![PixelSums::default(); (settings.width * settings.height) as usize];
     let mut points = Vec::new();
     let (mut done, mut elapsed) = (0u32, 0.0);
     loop {
         let next = (done * 2).max(1);
         let t = Instant::now();
-        let part = render_tile(scene, settings, settings.full_frame(), done..next, &RenderOptions::default()).map_err(|e| e.to_string())?;
+        let part = render_tile(
+            scene,
+            settings,
+            settings.full_frame(),
+            done..next,
+            &RenderOptions::default(),
+        )
+        .map_err(|e| e.to_string())?;
         elapsed += t.elapsed().as_secs_f64();
         sums.iter_mut().zip(&part.pixels).for_each(|(s, p)| s.merge(p));
         done = next;

@@ -26,8 +26,13 @@ use reference::Reference;
 use std::path::PathBuf;
 
 /// The studied scenes and their analytic answer, where one exists.
-pub const SCENES: &[(&str, Option<f64>)] =
-    &[("cornell-box", None), ("cornell-small-light", None), ("glossy", None), ("phong", None), ("furnace", Some(0.5))];
+pub const SCENES: &[(&str, Option<f64>)] = &[
+    ("cornell-box", None),
+    ("cornell-small-light", None),
+    ("glossy", None),
+    ("phong", None),
+    ("furnace", Some(0.5)),
+];
 
 #[derive(clap::Args, Clone, Debug)]
 pub struct Options {
@@ -79,7 +84,14 @@ impl Options {
     fn effective(mut self) -> Options {
         if self.quick {
             (self.size, self.budget, self.max_spp) = (8, 0.05, 4);
-            self.farm = farm::FarmOptions { farm_size: 16, farm_noise: 0.05, farm_max_spp: 8, farm_tiles: vec![8, 16], farm_batches: vec![1, 4], farm_workers: vec![1, 3] };
+            self.farm = farm::FarmOptions {
+                farm_size: 16,
+                farm_noise: 0.05,
+                farm_max_spp: 8,
+                farm_tiles: vec![8, 16],
+                farm_batches: vec![1, 4],
+                farm_workers: vec![1, 3],
+            };
         }
         if self.scenes.is_empty() {
             self.scenes = SCENES.iter().map(|(n, _)| n.to_string()).collect();
@@ -105,8 +117,14 @@ pub struct Study {
 /// Runs the study and writes `README.md` and one SVG per scene into `--out`.
 pub fn run(options: Options) -> anyhow::Result<Study> {
     let options = options.effective();
-    anyhow::ensure!(options.size > 0 && options.max_spp > 0 && options.reference_factor > 0, "--size, --max-spp and --reference-factor must be positive");
-    anyhow::ensure!(options.budget.is_finite() && options.budget > 0.0, "--budget must be a positive number of seconds");
+    anyhow::ensure!(
+        options.size > 0 && options.max_spp > 0 && options.reference_factor > 0,
+        "--size, --max-spp and --reference-factor must be positive"
+    );
+    anyhow::ensure!(
+        options.budget.is_finite() && options.budget > 0.0,
+        "--budget must be a positive number of seconds"
+    );
     let mut scenes = Vec::new();
     for name in &options.scenes {
         scenes.push(study_scene(name, &options)?);
@@ -124,18 +142,35 @@ pub fn run(options: Options) -> anyhow::Result<Study> {
 
 fn study_scene(name: &str, options: &Options) -> anyhow::Result<SceneResult> {
     let analytic = SCENES.iter().find(|(n, _)| *n == name).and_then(|(_, v)| *v);
-    let bytes = tessera_server::bundled::get(name)
-        .ok_or_else(|| anyhow::anyhow!("{name:?} is not a bundled scene ({})", tessera_server::bundled::names().join(", ")))?;
+    let bytes = tessera_server::bundled::get(name).ok_or_else(|| {
+        anyhow::anyhow!(
+            "{name:?} is not a bundled scene ({})",
+            tessera_server::bundled::names().join(", ")
+        )
+    })?;
     let scene = tessera_render::scene::load_bytes(bytes, None)?;
     let pixels = (options.size * options.size) as usize;
     let reference = match analytic {
         Some(v) => Reference::analytic(pixels, v, &format!("analytic {v}")),
-        None => reference::rendered(&scene, bytes, name, options.size, options.max_spp * options.reference_factor, &options.cache)?,
+        None => reference::rendered(
+            &scene,
+            bytes,
+            name,
+            options.size,
+            options.max_spp * options.reference_factor,
+            &options.cache,
+        )?,
     };
     let budget = Budget { seconds: options.budget, max_spp: options.max_spp };
     let mut curves = Vec::new();
     for config in Config::all() {
-        let points = measure::converge(&scene, &config.settings(options.size, options.seed), &reference, budget).map_err(anyhow::Error::msg)?;
+        let points = measure::converge(
+            &scene,
+            &config.settings(options.size, options.seed),
+            &reference,
+            budget,
+        )
+        .map_err(anyhow::Error::msg)?;
         let last = points.last().expect("at least one rung");
         eprintln!(
             "  {name:<20} {:<24} {:>5} spp {:>7.3} s  relMSE {:.3e}  slope {}",
@@ -147,5 +182,10 @@ fn study_scene(name: &str, options: &Options) -> anyhow::Result<SceneResult> {
         );
         curves.push((config, points));
     }
-    Ok(SceneResult { name: name.into(), reference: reference.description.clone(), reference_floor: reference.noise_floor(), curves })
+    Ok(SceneResult {
+        name: name.into(),
+        reference: reference.description.clone(),
+        reference_floor: reference.noise_floor(),
+        curves,
+    })
 }

@@ -28,7 +28,9 @@ fn style(c: &Config) -> ShapeStyle {
 }
 
 pub fn svg(scene: &SceneResult) -> anyhow::Result<String> {
-    let pts = |p: &[Point]| -> Vec<(f64, f64)> { p.iter().map(|p| (p.time_s.max(1e-6), p.rel_mse.max(LOWEST))).collect() };
+    let pts = |p: &[Point]| -> Vec<(f64, f64)> {
+        p.iter().map(|p| (p.time_s.max(1e-6), p.rel_mse.max(LOWEST))).collect()
+    };
     let all: Vec<(f64, f64)> = scene.curves.iter().flat_map(|(_, p)| pts(p)).collect();
     anyhow::ensure!(!all.is_empty(), "no points to plot for {}", scene.name);
     let (x0, x1) = all.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
@@ -61,7 +63,10 @@ pub fn svg(scene: &SceneResult) -> anyhow::Result<String> {
                 SamplerKind::Sobol => chart.draw_series(LineSeries::new(p, s)),
                 SamplerKind::Independent => chart.draw_series(DashedLineSeries::new(p, 6, 4, s)),
             };
-            series.map_err(plot_err)?.label(config.label()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], s));
+            series
+                .map_err(plot_err)?
+                .label(config.label())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], s));
         }
         if scene.reference_floor > 0.0 {
             let grey = RGBColor(120, 120, 120).stroke_width(1);

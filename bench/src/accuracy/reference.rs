@@ -5,10 +5,10 @@
 //! Cache files are keyed by the scene's SHA-256, the size, the spp, the seed and the crate version
 //! (bump [`CACHE_VERSION`] when the tracer's output changes) and hold per pixel the mean and the
 //! estimated variance of the mean (f64, little-endian) after a 32-byte header.
-use tessera_render::tracer::RenderOptions;
 use super::measure::rel_mse;
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
+use tessera_render::tracer::RenderOptions;
 use tessera_render::tracer::integrator::PathSettings;
 use tessera_render::tracer::sampler::SamplerKind;
 use tessera_render::tracer::{PixelSums, RenderSettings, Scene, render_tile};
@@ -29,7 +29,11 @@ pub struct Reference {
 
 impl Reference {
     pub fn analytic(pixels: usize, value: f64, what: &str) -> Reference {
-        Reference { means: vec![[value; 3]; pixels], variance: vec![[0.0; 3]; pixels], description: what.into() }
+        Reference {
+            means: vec![[value; 3]; pixels],
+            variance: vec![[0.0; 3]; pixels],
+            description: what.into(),
+        }
     }
 
     pub fn rel_mse(&self, sums: &[PixelSums]) -> f64 {
@@ -51,16 +55,33 @@ impl Reference {
 }
 
 /// Loads the reference of `name` from `cache` or renders (and caches) it.
-pub fn rendered(scene: &Scene, scene_bytes: &[u8], name: &str, size: u32, spp: u32, cache: &Path) -> anyhow::Result<Reference> {
+pub fn rendered(
+    scene: &Scene,
+    scene_bytes: &[u8],
+    name: &str,
+    size: u32,
+    spp: u32,
+    cache: &Path,
+) -> anyhow::Result<Reference> {
     rendered_with(scene, scene_bytes, name, size, spp, SamplerKind::Sobol, cache)
 }
 
 /// As [`rendered`], with the reference's sampler chosen: an independent-sampler reference has an
 /// unbiased per-pixel variance estimate, so its noise can be subtracted from a measured error.
-pub fn rendered_with(scene: &Scene, scene_bytes: &[u8], name: &str, size: u32, spp: u32, sampler: SamplerKind, cache: &Path) -> anyhow::Result<Reference> {
+pub fn rendered_with(
+    scene: &Scene,
+    scene_bytes: &[u8],
+    name: &str,
+    size: u32,
+    spp: u32,
+    sampler: SamplerKind,
+    cache: &Path,
+) -> anyhow::Result<Reference> {
     let hash = hex::encode(&Sha256::digest(scene_bytes)[..6]);
     let tag = if sampler == SamplerKind::Sobol { String::new() } else { format!("-{sampler}") };
-    let file = cache.join(format!("{name}-{hash}-{size}px-{spp}spp{tag}-seed{REFERENCE_SEED:x}-v{CACHE_VERSION}.bin"));
+    let file = cache.join(format!(
+        "{name}-{hash}-{size}px-{spp}spp{tag}-seed{REFERENCE_SEED:x}-v{CACHE_VERSION}.bin"
+    ));
     let description = format!("mis+{sampler} {spp} spp");
     if let Some((means, variance)) = read(&file, size, spp) {
         return Ok(Reference { means, variance, description });
@@ -78,10 +99,21 @@ pub fn rendered_with(scene: &Scene, scene_bytes: &[u8], name: &str, size: u32, s
     let mut sums = vec![PixelSums::default(); (size * size) as usize];
     let chunk = 256.min(spp);
     for s0 in (0..spp).step_by(chunk as usize) {
-        let part = render_tile(scene, &settings, settings.full_frame(), s0..(s0 + chunk).min(spp), &RenderOptions::default()).map_err(anyhow::Error::msg)?;
+        let part = render_tile(
+            scene,
+            &settings,
+            settings.full_frame(),
+            s0..(s0 + chunk).min(spp),
+            &RenderOptions::default(),
+        )
+        .map_err(anyhow::Error::msg)?;
         sums.iter_mut().zip(&part.pixels).for_each(|(s, p)| s.merge(p));
     }
-    eprintln!("  reference {name}: {description} at {size}×{size} in {:.1} s → {}", started.elapsed().as_secs_f64(), file.display());
+    eprintln!(
+        "  reference {name}: {description} at {size}×{size} in {:.1} s → {}",
+        started.elapsed().as_secs_f64(),
+        file.display()
+    );
     let means: Vec<_> = sums.iter().map(PixelSums::mean).collect();
     let variance: Vec<_> = sums.iter().map(PixelSums::variance_of_mean).collect();
     write(&file, size, spp, &means, &variance)?;
@@ -94,16 +126,27 @@ type Planes = (Vec<[f64; 3]>, Vec<[f64; 3]>);
 fn read(file: &Path, size: u32, spp: u32) -> Option<Planes> {
     let bytes = std::fs::read(file).ok()?;
     let n = (size * size) as usize;
-    if bytes.len() != 32 + n * 48 || &bytes[..8] != MAGIC || bytes[8..12] != size.to_le_bytes() || bytes[12..16] != spp.to_le_bytes() {
+    if bytes.len() != 32 + n * 48
+        || &bytes[..8] != MAGIC
+        || bytes[8..12] != size.to_le_bytes()
+        || bytes[12..16] != spp.to_le_bytes()
+    {
         return None;
     }
-    let f = |i: usize| f64::from_le_bytes(bytes[32 + i * 8..40 + i * 8].try_into().expect("8 bytes"));
+    let f =
+        |i: usize| f64::from_le_bytes(bytes[32 + i * 8..40 + i * 8].try_into().expect("8 bytes"));
     let means = (0..n).map(|p| [f(p * 6), f(p * 6 + 1), f(p * 6 + 2)]).collect();
     let variance = (0..n).map(|p| [f(p * 6 + 3), f(p * 6 + 4), f(p * 6 + 5)]).collect();
     Some((means, variance))
 }
 
-fn write(file: &Path, size: u32, spp: u32, means: &[[f64; 3]], variance: &[[f64; 3]]) -> anyhow::Result<()> {
+fn write(
+    file: &Path,
+    size: u32,
+    spp: u32,
+    means: &[[f64; 3]],
+    variance: &[[f64; 3]],
+) -> anyhow::Result<()> {
     let mut bytes = Vec::with_capacity(32 + means.len() * 48);
     bytes.extend_from_slice(MAGIC);
     bytes.extend_from_slice(&size.to_le_bytes());

@@ -8,12 +8,14 @@ pub const SLOPE_FROM_SPP: u32 = 4;
 
 /// Least-squares slope of ln y against ln x (None with fewer than two usable points).
 pub fn log_log_slope(xy: impl Iterator<Item = (f64, f64)>) -> Option<f64> {
-    let pts: Vec<(f64, f64)> = xy.filter(|(x, y)| *x > 0.0 && *y > 0.0).map(|(x, y)| (x.ln(), y.ln())).collect();
+    let pts: Vec<(f64, f64)> =
+        xy.filter(|(x, y)| *x > 0.0 && *y > 0.0).map(|(x, y)| (x.ln(), y.ln())).collect();
     if pts.len() < 2 {
         return None;
     }
     let n = pts.len() as f64;
-    let (mx, my) = (pts.iter().map(|p| p.0).sum::<f64>() / n, pts.iter().map(|p| p.1).sum::<f64>() / n);
+    let (mx, my) =
+        (pts.iter().map(|p| p.0).sum::<f64>() / n, pts.iter().map(|p| p.1).sum::<f64>() / n);
     let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
     let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
     (sxx > 0.0).then(|| sxy / sxx)
@@ -59,7 +61,11 @@ pub fn time_to(points: &[Point], target: f64) -> Reach {
     match time_slope(points) {
         Some(s) if s < -0.1 && last.rel_mse > 0.0 => {
             let t = last.time_s * (target / last.rel_mse).powf(1.0 / s);
-            if t <= EXTRAPOLATE_AT_MOST * last.time_s { Reach::Extrapolated(t) } else { Reach::Beyond(EXTRAPOLATE_AT_MOST * last.time_s) }
+            if t <= EXTRAPOLATE_AT_MOST * last.time_s {
+                Reach::Extrapolated(t)
+            } else {
+                Reach::Beyond(EXTRAPOLATE_AT_MOST * last.time_s)
+            }
         }
         _ => Reach::Never,
     }
@@ -76,7 +82,13 @@ mod tests {
     use super::*;
 
     fn curve(slope: f64) -> Vec<Point> {
-        (0..8).map(|k| Point { spp: 1 << k, time_s: 0.01 * (1 << k) as f64, rel_mse: 0.5 * ((1 << k) as f64).powf(slope) }).collect()
+        (0..8)
+            .map(|k| Point {
+                spp: 1 << k,
+                time_s: 0.01 * (1 << k) as f64,
+                rel_mse: 0.5 * ((1 << k) as f64).powf(slope),
+            })
+            .collect()
     }
 
     #[test]

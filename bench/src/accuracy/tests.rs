@@ -1,11 +1,11 @@
 //! The study keeps working (`--quick`), its progressive ladder equals plain renders, and no
 //! estimator is biased: on the Cornell box with independent samples every estimator's relMSE
 //! falls as spp⁻¹.
-use tessera_render::tracer::RenderOptions;
 use super::measure::{self, Budget, Config, Point};
 use super::reference::{REFERENCE_SEED, Reference};
 use super::stats::log_log_slope;
 use clap::Parser;
+use tessera_render::tracer::RenderOptions;
 use tessera_render::tracer::sampler::SamplerKind;
 use tessera_render::tracer::{Estimator, PixelSums, Scene, render_tile};
 
@@ -16,12 +16,18 @@ struct Cli {
 }
 
 fn cornell() -> Scene {
-    tessera_render::scene::load_bytes(tessera_server::bundled::get("cornell-box").unwrap(), None).unwrap()
+    tessera_render::scene::load_bytes(tessera_server::bundled::get("cornell-box").unwrap(), None)
+        .unwrap()
 }
 
 fn reference(scene: &Scene, size: u32, spp: u32) -> Reference {
-    let settings = Config { estimator: Estimator::Mis, sampler: SamplerKind::Independent, roulette: true }.settings(size, REFERENCE_SEED);
-    let sums = render_tile(scene, &settings, settings.full_frame(), 0..spp, &RenderOptions::default()).unwrap().pixels;
+    let settings =
+        Config { estimator: Estimator::Mis, sampler: SamplerKind::Independent, roulette: true }
+            .settings(size, REFERENCE_SEED);
+    let sums =
+        render_tile(scene, &settings, settings.full_frame(), 0..spp, &RenderOptions::default())
+            .unwrap()
+            .pixels;
     Reference {
         means: sums.iter().map(PixelSums::mean).collect(),
         variance: sums.iter().map(PixelSums::variance_of_mean).collect(),
@@ -34,18 +40,40 @@ fn quick_study_writes_a_report_and_plots_with_text() {
     let out = std::env::temp_dir().join(format!("tessera-accuracy-quick-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let o = out.display().to_string();
-    let cli = Cli::parse_from(["accuracy", "--quick", "--out", &o, "--cache", &format!("{o}/cache"), "--date", "test", "--machine", "test"]);
+    let cli = Cli::parse_from([
+        "accuracy",
+        "--quick",
+        "--out",
+        &o,
+        "--cache",
+        &format!("{o}/cache"),
+        "--date",
+        "test",
+        "--machine",
+        "test",
+    ]);
     let study = super::run(cli.options).unwrap();
     assert_eq!(study.scenes.len(), super::SCENES.len());
     let md = std::fs::read_to_string(out.join("README.md")).unwrap();
     for s in &study.scenes {
         assert_eq!(s.curves.len(), 16, "{}", s.name);
         for (c, p) in &s.curves {
-            assert!(!p.is_empty() && p.iter().all(|p| p.spp <= 4 && p.rel_mse.is_finite()), "{} {}: {p:?}", s.name, c.label());
+            assert!(
+                !p.is_empty() && p.iter().all(|p| p.spp <= 4 && p.rel_mse.is_finite()),
+                "{} {}: {p:?}",
+                s.name,
+                c.label()
+            );
         }
         assert!(md.contains(&format!("## {}\n", s.name)), "no table for {}", s.name);
         let svg = std::fs::read_to_string(out.join(format!("{}.svg", s.name))).unwrap();
-        assert!(svg.contains("<text") && svg.contains("relMSE vs render time") && svg.contains("mis sobol rr on"), "{}.svg lacks its text", s.name);
+        assert!(
+            svg.contains("<text")
+                && svg.contains("relMSE vs render time")
+                && svg.contains("mis sobol rr on"),
+            "{}.svg lacks its text",
+            s.name
+        );
     }
     assert!(md.contains("## Estimators compared") && md.contains("## The distributed price"));
     // 2 worker counts × 2 tile sizes × 2 batch sizes, each job finished with samples merged.
@@ -59,14 +87,34 @@ fn the_progressive_ladder_equals_plain_renders() {
     let scene = cornell();
     let size = 12;
     let reference = reference(&scene, size, 16);
-    let settings = Config { estimator: Estimator::Light, sampler: SamplerKind::Sobol, roulette: true }.settings(size, 3);
-    let points = measure::converge(&scene, &settings, &reference, Budget { seconds: f64::INFINITY, max_spp: 8 }).unwrap();
+    let settings =
+        Config { estimator: Estimator::Light, sampler: SamplerKind::Sobol, roulette: true }
+            .settings(size, 3);
+    let points = measure::converge(
+        &scene,
+        &settings,
+        &reference,
+        Budget { seconds: f64::INFINITY, max_spp: 8 },
+    )
+    .unwrap();
     assert_eq!(points.iter().map(|p| p.spp).collect::<Vec<_>>(), [1, 2, 4, 8]);
     for p in points {
-        let plain = render_tile(&scene, &settings, settings.full_frame(), 0..p.spp, &RenderOptions::default()).unwrap();
+        let plain = render_tile(
+            &scene,
+            &settings,
+            settings.full_frame(),
+            0..p.spp,
+            &RenderOptions::default(),
+        )
+        .unwrap();
         let direct = reference.rel_mse(&plain.pixels);
         // Same samples; only the order of f64 additions differs.
-        assert!((p.rel_mse - direct).abs() <= 1e-9 * direct, "{} spp: {} vs {direct}", p.spp, p.rel_mse);
+        assert!(
+            (p.rel_mse - direct).abs() <= 1e-9 * direct,
+            "{} spp: {} vs {direct}",
+            p.spp,
+            p.rel_mse
+        );
     }
 }
 
@@ -95,20 +143,49 @@ fn every_estimator_converges_as_one_over_spp_on_the_cornell_box() {
     for estimator in Estimator::ALL {
         let config = Config { estimator, sampler: SamplerKind::Independent, roulette: true };
         let curves: Vec<Vec<Point>> = (0..SEEDS)
-            .map(|seed| measure::converge(&scene, &config.settings(SIZE, seed), &reference, budget).unwrap().into_iter().filter(|p| p.spp >= 4).collect())
+            .map(|seed| {
+                measure::converge(&scene, &config.settings(SIZE, seed), &reference, budget)
+                    .unwrap()
+                    .into_iter()
+                    .filter(|p| p.spp >= 4)
+                    .collect()
+            })
             .collect();
-        let fit = |curve: &dyn Fn(usize) -> f64| log_log_slope(curves[0].iter().enumerate().map(|(k, p)| (p.spp as f64, curve(k) - floor))).unwrap();
+        let fit = |curve: &dyn Fn(usize) -> f64| {
+            log_log_slope(
+                curves[0].iter().enumerate().map(|(k, p)| (p.spp as f64, curve(k) - floor)),
+            )
+            .unwrap()
+        };
         let slope = fit(&|k| curves.iter().map(|c| c[k].rel_mse).sum::<f64>() / SEEDS as f64);
         let per_seed: Vec<f64> = curves.iter().map(|c| fit(&|k| c[k].rel_mse)).collect();
         let mean = per_seed.iter().sum::<f64>() / SEEDS as f64;
-        let se = (per_seed.iter().map(|s| (s - mean).powi(2)).sum::<f64>() / (SEEDS - 1) as f64 / SEEDS as f64).sqrt();
+        let se = (per_seed.iter().map(|s| (s - mean).powi(2)).sum::<f64>()
+            / (SEEDS - 1) as f64
+            / SEEDS as f64)
+            .sqrt();
         let at64 = curves.iter().map(|c| c[c.len() - 1].rel_mse).sum::<f64>() / SEEDS as f64;
-        eprintln!("{:<6} slope {slope:+.3} (per-seed mean {mean:+.3} ± {se:.3}), relMSE at 64 spp {at64:.2e}, reference floor {floor:.1e}", estimator.name());
+        eprintln!(
+            "{:<6} slope {slope:+.3} (per-seed mean {mean:+.3} ± {se:.3}), relMSE at 64 spp {at64:.2e}, reference floor {floor:.1e}",
+            estimator.name()
+        );
         if estimator == Estimator::Naive {
             continue;
         }
-        assert!(floor < 0.05 * at64, "{}: the reference's noise {floor:.2e} is not ≪ the 64-spp error {at64:.2e}", estimator.name());
-        assert!(se < 0.05, "{}: the slope's standard error {se:.3} is too large for the window to mean anything", estimator.name());
-        assert!((-1.15..=-0.85).contains(&slope), "{}: relMSE falls with slope {slope:.3}, outside [−1.15, −0.85]", estimator.name());
+        assert!(
+            floor < 0.05 * at64,
+            "{}: the reference's noise {floor:.2e} is not ≪ the 64-spp error {at64:.2e}",
+            estimator.name()
+        );
+        assert!(
+            se < 0.05,
+            "{}: the slope's standard error {se:.3} is too large for the window to mean anything",
+            estimator.name()
+        );
+        assert!(
+            (-1.15..=-0.85).contains(&slope),
+            "{}: relMSE falls with slope {slope:.3}, outside [−1.15, −0.85]",
+            estimator.name()
+        );
     }
 }

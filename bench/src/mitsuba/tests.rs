@@ -19,19 +19,29 @@ fn bench(python: &str, cache: &Path) -> MitsubaBench {
 
 #[test]
 fn the_reference_noise_is_subtracted_exactly() {
-    let reference = Reference { means: vec![[0.5, 0.09, 0.0]; 4], variance: vec![[1e-4, 4e-6, 0.0]; 4], description: "test".into() };
+    let reference = Reference {
+        means: vec![[0.5, 0.09, 0.0]; 4],
+        variance: vec![[1e-4, 4e-6, 0.0]; 4],
+        description: "test".into(),
+    };
     let floor = reference.noise_floor();
     let same = rel_mse_above_reference(reference.means.clone().into_iter(), &reference);
-    assert!((same + floor).abs() < 1e-15, "an image equal to the reference scores −floor: {same} vs {floor}");
+    assert!(
+        (same + floor).abs() < 1e-15,
+        "an image equal to the reference scores −floor: {same} vs {floor}"
+    );
     // Off by 0.01 in every channel: each term adds 0.01² / (ref + 0.01)².
-    let off = rel_mse_above_reference(reference.means.iter().map(|m| m.map(|v| v + 0.01)), &reference);
-    let expected = (1e-4 / 0.51f64.powi(2) + 1e-4 / 0.1f64.powi(2) + 1e-4 / 0.01f64.powi(2)) / 3.0 - floor;
+    let off =
+        rel_mse_above_reference(reference.means.iter().map(|m| m.map(|v| v + 0.01)), &reference);
+    let expected =
+        (1e-4 / 0.51f64.powi(2) + 1e-4 / 0.1f64.powi(2) + 1e-4 / 0.01f64.powi(2)) / 3.0 - floor;
     assert!((off - expected).abs() < 1e-12, "{off} vs {expected}");
 }
 
 #[test]
 fn without_mitsuba_tessera_is_measured_and_the_run_still_succeeds() {
-    let cache = std::env::temp_dir().join(format!("tessera-mitsuba-bench-test-{}", std::process::id()));
+    let cache =
+        std::env::temp_dir().join(format!("tessera-mitsuba-bench-test-{}", std::process::id()));
     let rows = run(&bench("/nonexistent/python3", &cache)).expect("runs without Mitsuba");
     let _ = std::fs::remove_dir_all(&cache);
     assert_eq!(rows.len(), 4, "two samplers × two spp, Tessera only");
@@ -45,14 +55,24 @@ fn without_mitsuba_tessera_is_measured_and_the_run_still_succeeds() {
 #[test]
 fn a_scene_mitsuba_cannot_render_is_measured_on_tessera_alone() {
     use std::os::unix::fs::PermissionsExt;
-    let dir = std::env::temp_dir().join(format!("tessera-mitsuba-bench-refuse-{}", std::process::id()));
+    let dir =
+        std::env::temp_dir().join(format!("tessera-mitsuba-bench-refuse-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     // Stands in for python3 running the script on a scene it cannot translate.
     let fake = dir.join("python3");
-    std::fs::write(&fake, "#!/bin/sh\necho 'Mitsuba cannot render textured as Tessera does: textures' >&2\nexit 2\n").unwrap();
+    std::fs::write(
+        &fake,
+        "#!/bin/sh\necho 'Mitsuba cannot render textured as Tessera does: textures' >&2\nexit 2\n",
+    )
+    .unwrap();
     std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
-    let err = mitsuba_rows("cornell-box", &Reference { means: vec![], variance: vec![], description: String::new() }, &bench(fake.to_str().unwrap(), &dir), 1)
-        .expect_err("the script refused");
+    let err = mitsuba_rows(
+        "cornell-box",
+        &Reference { means: vec![], variance: vec![], description: String::new() },
+        &bench(fake.to_str().unwrap(), &dir),
+        1,
+    )
+    .expect_err("the script refused");
     assert!(err.is::<Untranslatable>(), "{err:#}");
     assert_eq!(err.to_string(), "Mitsuba cannot render textured as Tessera does: textures");
     let rows = run(&bench(fake.to_str().unwrap(), &dir)).expect("Tessera's side still runs");

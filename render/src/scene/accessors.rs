@@ -3,15 +3,26 @@
 use super::SceneError;
 
 /// Checks every accessor a triangle primitive reads.
-pub fn check_primitive(prim: &gltf::Primitive, buffers: &[Vec<u8>], at: &dyn Fn(&str) -> String) -> Result<(), SceneError> {
+pub fn check_primitive(
+    prim: &gltf::Primitive,
+    buffers: &[Vec<u8>],
+    at: &dyn Fn(&str) -> String,
+) -> Result<(), SceneError> {
     for (semantic, accessor) in prim.attributes() {
-        check(&accessor, buffers).map_err(|e| SceneError::new(at(&format!("{} accessor {e}", semantic.to_string()))))?;
-        check_type(&semantic, &accessor).map_err(|e| SceneError::new(at(&format!("{} accessor {e}", semantic.to_string()))))?;
+        check(&accessor, buffers)
+            .map_err(|e| SceneError::new(at(&format!("{} accessor {e}", semantic.to_string()))))?;
+        check_type(&semantic, &accessor)
+            .map_err(|e| SceneError::new(at(&format!("{} accessor {e}", semantic.to_string()))))?;
     }
     if let Some(ix) = prim.indices() {
         check(&ix, buffers).map_err(|e| SceneError::new(at(&format!("indices accessor {e}"))))?;
         if ix.dimensions() != gltf::accessor::Dimensions::Scalar
-            || !matches!(ix.data_type(), gltf::accessor::DataType::U8 | gltf::accessor::DataType::U16 | gltf::accessor::DataType::U32)
+            || !matches!(
+                ix.data_type(),
+                gltf::accessor::DataType::U8
+                    | gltf::accessor::DataType::U16
+                    | gltf::accessor::DataType::U32
+            )
         {
             return Err(SceneError::new(at("indices must be unsigned scalar integers")));
         }
@@ -32,7 +43,15 @@ fn check_type(semantic: &gltf::Semantic, a: &gltf::Accessor) -> Result<(), Strin
         TexCoords(_) => a.dimensions() == Vec2 && matches!(a.data_type(), F32 | U8 | U16),
         _ => true, // not read
     };
-    if ok { Ok(()) } else { Err(format!("has type {:?} of {:?}, which glTF does not allow for it", a.dimensions(), a.data_type())) }
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "has type {:?} of {:?}, which glTF does not allow for it",
+            a.dimensions(),
+            a.data_type()
+        ))
+    }
 }
 
 /// Checks that an accessor's data lies inside its buffers (the message continues "accessor …").
@@ -49,16 +68,24 @@ fn check(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
     // Without a buffer view the accessor is zeros (plus sparse values): nothing in the file
     // bounds its count, so a tiny file could make the reader allocate gigabytes.
     if a.view().is_none() && count > MAX_VIEWLESS_COUNT {
-        return Err(format!("has no bufferView and count {count}; at most {MAX_VIEWLESS_COUNT} such elements are accepted"));
+        return Err(format!(
+            "has no bufferView and count {count}; at most {MAX_VIEWLESS_COUNT} such elements are accepted"
+        ));
     }
     if let Some(view) = a.view() {
         let stride = view.stride().unwrap_or(size);
         if stride < size {
             return Err(format!("byteStride {stride} is smaller than its element size {size}"));
         }
-        let span = (count - 1).checked_mul(stride).and_then(|s| s.checked_add(size)).and_then(|s| s.checked_add(a.offset()));
+        let span = (count - 1)
+            .checked_mul(stride)
+            .and_then(|s| s.checked_add(size))
+            .and_then(|s| s.checked_add(a.offset()));
         if span.is_none_or(|s| s > view.length()) {
-            return Err(format!("with count {count} reads past the end of buffer view {}", view.index()));
+            return Err(format!(
+                "with count {count} reads past the end of buffer view {}",
+                view.index()
+            ));
         }
         check_view(&view, buffers)?;
     }
@@ -81,7 +108,11 @@ fn check_view(view: &gltf::buffer::View, buffers: &[Vec<u8>]) -> Result<(), Stri
     let len = buffers.get(view.buffer().index()).map_or(0, Vec::len);
     match view.offset().checked_add(view.length()) {
         Some(end) if end <= len => Ok(()),
-        _ => Err(format!("buffer view {} lies outside buffer {} ({len} bytes)", view.index(), view.buffer().index())),
+        _ => Err(format!(
+            "buffer view {} lies outside buffer {} ({len} bytes)",
+            view.index(),
+            view.buffer().index()
+        )),
     }
 }
 
@@ -93,7 +124,9 @@ pub fn packed_vec3<'a>(a: &gltf::Accessor, buffers: &'a [Vec<u8>]) -> Option<&'a
     use gltf::accessor::{DataType, Dimensions};
     const ELEMENT: usize = size_of::<[f32; 3]>();
     let view = a.view()?;
-    let packed = a.data_type() == DataType::F32 && a.dimensions() == Dimensions::Vec3 && view.stride().is_none_or(|s| s == ELEMENT);
+    let packed = a.data_type() == DataType::F32
+        && a.dimensions() == Dimensions::Vec3
+        && view.stride().is_none_or(|s| s == ELEMENT);
     if !packed || a.sparse().is_some() || a.normalized() || cfg!(target_endian = "big") {
         return None;
     }

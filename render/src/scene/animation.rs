@@ -73,7 +73,11 @@ pub struct Animation {
 
 impl Animation {
     pub fn info(&self) -> AnimationInfo {
-        let duration_s = self.channels.iter().filter_map(|c| c.track.times.last()).fold(0.0, |a: f64, &b| a.max(b));
+        let duration_s = self
+            .channels
+            .iter()
+            .filter_map(|c| c.track.times.last())
+            .fold(0.0, |a: f64, &b| a.max(b));
         AnimationInfo { name: self.name.clone(), duration_s, channels: self.channels.len() }
     }
 
@@ -88,7 +92,12 @@ impl Animation {
                 Target::Scale => slot.2 = c.track.sample(time_s).truncate(),
             }
         }
-        Pose { local: trs.into_iter().map(|t| t.map(|(t, r, s)| DMat4::from_scale_rotation_translation(s, r, t))).collect() }
+        Pose {
+            local: trs
+                .into_iter()
+                .map(|t| t.map(|(t, r, s)| DMat4::from_scale_rotation_translation(s, r, t)))
+                .collect(),
+        }
     }
 }
 
@@ -167,7 +176,10 @@ impl Track {
         let (s2, s3) = (s * s, s * s * s);
         let (v0, b0) = (self.values[3 * k + 1], self.values[3 * k + 2]);
         let (a1, v1) = (self.values[3 * k + 3], self.values[3 * k + 4]);
-        v0 * (2.0 * s3 - 3.0 * s2 + 1.0) + b0 * (dt * (s3 - 2.0 * s2 + s)) + v1 * (-2.0 * s3 + 3.0 * s2) + a1 * (dt * (s3 - s2))
+        v0 * (2.0 * s3 - 3.0 * s2 + 1.0)
+            + b0 * (dt * (s3 - 2.0 * s2 + s))
+            + v1 * (-2.0 * s3 + 3.0 * s2)
+            + a1 * (dt * (s3 - s2))
     }
 }
 
@@ -186,30 +198,46 @@ pub fn parse(doc: &gltf::Document, buffers: &[Vec<u8>]) -> Result<Vec<Animation>
     doc.animations().map(|a| parse_one(doc, &a, buffers)).collect()
 }
 
-fn parse_one(doc: &gltf::Document, anim: &gltf::Animation, buffers: &[Vec<u8>]) -> Result<Animation, SceneError> {
+fn parse_one(
+    doc: &gltf::Document,
+    anim: &gltf::Animation,
+    buffers: &[Vec<u8>],
+) -> Result<Animation, SceneError> {
     let json = &doc.as_json().animations[anim.index()];
     let mut channels: Vec<Channel> = Vec::with_capacity(json.channels.len());
     for (c, (channel, cj)) in anim.channels().zip(&json.channels).enumerate() {
-        let at = |what: &str| SceneError::new(format!("animation {} channel {c}: {what}", anim.index()));
+        let at =
+            |what: &str| SceneError::new(format!("animation {} channel {c}: {what}", anim.index()));
         let node = cj.target.node.value();
         let Some(n) = doc.nodes().nth(node) else {
-            return Err(at(&format!("target node {node} does not exist (the file has {} nodes)", doc.nodes().len())));
+            return Err(at(&format!(
+                "target node {node} does not exist (the file has {} nodes)",
+                doc.nodes().len()
+            )));
         };
         let target = match cj.target.path {
             Checked::Valid(Property::Translation) => Target::Translation,
             Checked::Valid(Property::Rotation) => Target::Rotation,
             Checked::Valid(Property::Scale) => Target::Scale,
-            Checked::Valid(Property::MorphTargetWeights) => return Err(at("morph-target weights are not supported")),
-            Checked::Invalid => return Err(at("target path must be translation, rotation or scale")),
+            Checked::Valid(Property::MorphTargetWeights) => {
+                return Err(at("morph-target weights are not supported"));
+            }
+            Checked::Invalid => {
+                return Err(at("target path must be translation, rotation or scale"));
+            }
         };
         if n.skin().is_some() {
             return Err(at(&format!("node {node} is skinned; skins are not supported")));
         }
         if matches!(n.transform(), gltf::scene::Transform::Matrix { .. }) {
-            return Err(at(&format!("node {node} has a matrix; an animated node must use translation/rotation/scale")));
+            return Err(at(&format!(
+                "node {node} has a matrix; an animated node must use translation/rotation/scale"
+            )));
         }
         if channels.iter().any(|o| o.node == node && o.target == target) {
-            return Err(at(&format!("node {node} {target:?} is already driven by another channel of this animation")));
+            return Err(at(&format!(
+                "node {node} {target:?} is already driven by another channel of this animation"
+            )));
         }
         let sampler = channel.sampler();
         let track = read_track(&channel, sampler.index(), json, target, buffers)
@@ -235,17 +263,29 @@ fn read_track(
     };
     let (input, output) = (channel.sampler().input(), channel.sampler().output());
     super::accessors::check_accessor(&input, buffers).map_err(|e| format!("input accessor {e}"))?;
-    super::accessors::check_accessor(&output, buffers).map_err(|e| format!("output accessor {e}"))?;
+    super::accessors::check_accessor(&output, buffers)
+        .map_err(|e| format!("output accessor {e}"))?;
     if input.dimensions() != Dimensions::Scalar || input.data_type() != DataType::F32 {
-        return Err(format!("input accessor has type {:?} of {:?}; keyframe times must be SCALAR f32", input.dimensions(), input.data_type()));
+        return Err(format!(
+            "input accessor has type {:?} of {:?}; keyframe times must be SCALAR f32",
+            input.dimensions(),
+            input.data_type()
+        ));
     }
     let (want, ints_ok) = match target {
         Target::Translation | Target::Scale => (Dimensions::Vec3, false),
         Target::Rotation => (Dimensions::Vec4, true),
     };
-    let int = matches!(output.data_type(), DataType::I8 | DataType::U8 | DataType::I16 | DataType::U16);
-    if output.dimensions() != want || !(output.data_type() == DataType::F32 || (ints_ok && int && output.normalized())) {
-        return Err(format!("output accessor has type {:?} of {:?}, which glTF does not allow for {target:?}", output.dimensions(), output.data_type()));
+    let int =
+        matches!(output.data_type(), DataType::I8 | DataType::U8 | DataType::I16 | DataType::U16);
+    if output.dimensions() != want
+        || !(output.data_type() == DataType::F32 || (ints_ok && int && output.normalized()))
+    {
+        return Err(format!(
+            "output accessor has type {:?} of {:?}, which glTF does not allow for {target:?}",
+            output.dimensions(),
+            output.data_type()
+        ));
     }
     let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
     if output.count() != input.count() * per_key {
@@ -259,13 +299,19 @@ fn read_track(
     }
     let reader = channel.reader(|b| buffers.get(b.index()).map(|d| d.as_slice()));
     let times = read_times(reader.read_inputs().ok_or("cannot read the input accessor")?)?;
-    let mut values: Vec<DVec4> = match reader.read_outputs().ok_or("cannot read the output accessor")? {
-        gltf::animation::util::ReadOutputs::Translations(it) | gltf::animation::util::ReadOutputs::Scales(it) => {
-            it.map(|v| DVec3::from_array(v.map(f64::from)).extend(0.0)).collect()
-        }
-        gltf::animation::util::ReadOutputs::Rotations(r) => r.into_f32().map(|v| DVec4::from_array(v.map(f64::from))).collect(),
-        gltf::animation::util::ReadOutputs::MorphTargetWeights(_) => return Err("morph-target weights are not supported".into()),
-    };
+    let mut values: Vec<DVec4> =
+        match reader.read_outputs().ok_or("cannot read the output accessor")? {
+            gltf::animation::util::ReadOutputs::Translations(it)
+            | gltf::animation::util::ReadOutputs::Scales(it) => {
+                it.map(|v| DVec3::from_array(v.map(f64::from)).extend(0.0)).collect()
+            }
+            gltf::animation::util::ReadOutputs::Rotations(r) => {
+                r.into_f32().map(|v| DVec4::from_array(v.map(f64::from))).collect()
+            }
+            gltf::animation::util::ReadOutputs::MorphTargetWeights(_) => {
+                return Err("morph-target weights are not supported".into());
+            }
+        };
     if let Some(k) = values.iter().position(|v| !v.is_finite()) {
         return Err(format!("output value {k} is not finite"));
     }
@@ -290,7 +336,10 @@ fn read_times(it: impl Iterator<Item = f32>) -> Result<Vec<f64>, String> {
         }
         // Checked while reading, so a huge accessor of zeros stops at its second element.
         if times.last().is_some_and(|&prev| t <= prev) {
-            return Err(format!("keyframe times must increase strictly (time {k} is {t} after {})", times[k - 1]));
+            return Err(format!(
+                "keyframe times must increase strictly (time {k} is {t} after {})",
+                times[k - 1]
+            ));
         }
         times.push(t);
     }
@@ -299,7 +348,10 @@ fn read_times(it: impl Iterator<Item = f32>) -> Result<Vec<f64>, String> {
 
 /// The animation `selector` names: a name first, then a decimal index; None without a
 /// selector means the first animation, or none when the scene has none.
-pub fn resolve(animations: &[AnimationInfo], selector: Option<&str>) -> Result<Option<usize>, SceneError> {
+pub fn resolve(
+    animations: &[AnimationInfo],
+    selector: Option<&str>,
+) -> Result<Option<usize>, SceneError> {
     let Some(sel) = selector else { return Ok((!animations.is_empty()).then_some(0)) };
     if let Some(i) = animations.iter().position(|a| a.name.as_deref() == Some(sel)) {
         return Ok(Some(i));
@@ -314,6 +366,10 @@ pub fn resolve(animations: &[AnimationInfo], selector: Option<&str>) -> Result<O
         .enumerate()
         .map(|(i, a)| a.name.clone().unwrap_or_else(|| format!("{i} (unnamed)")))
         .collect();
-    let have = if names.is_empty() { "the scene has no animations".to_owned() } else { format!("the scene has: {}", names.join(", ")) };
+    let have = if names.is_empty() {
+        "the scene has no animations".to_owned()
+    } else {
+        format!("the scene has: {}", names.join(", "))
+    };
     Err(SceneError::new(format!("no animation named {sel} ({have})")))
 }

@@ -52,7 +52,9 @@ pub fn instanced(scene: &gltf::Scene, nodes: usize, buffers: &[Vec<u8>]) -> u64 
 
 /// The primitive's triangles by its accessor counts.
 fn triangles(prim: &gltf::Primitive) -> u64 {
-    let corners = prim.indices().or_else(|| prim.get(&gltf::Semantic::Positions)).map_or(0, |a| a.count()) as u64;
+    let corners =
+        prim.indices().or_else(|| prim.get(&gltf::Semantic::Positions)).map_or(0, |a| a.count())
+            as u64;
     match prim.mode() {
         Mode::Triangles => corners / 3,
         Mode::TriangleStrip | Mode::TriangleFan => corners.saturating_sub(2),

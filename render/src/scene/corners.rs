@@ -72,7 +72,10 @@ mod tests {
     #[test]
     fn lists_strips_and_fans_give_gltf_triangles() {
         assert_eq!(listed(Mode::Triangles, &[5, 6, 7, 8, 9, 10, 11]), [[5, 6, 7], [8, 9, 10]]);
-        assert_eq!(listed(Mode::TriangleStrip, &[0, 1, 2, 3, 4]), [[0, 1, 2], [2, 1, 3], [2, 3, 4]]);
+        assert_eq!(
+            listed(Mode::TriangleStrip, &[0, 1, 2, 3, 4]),
+            [[0, 1, 2], [2, 1, 3], [2, 3, 4]]
+        );
         assert_eq!(listed(Mode::TriangleFan, &[0, 1, 2, 3, 4]), [[0, 1, 2], [0, 2, 3], [0, 3, 4]]);
         assert_eq!(listed(Mode::TriangleFan, &[0, 1]), Vec::<[u32; 3]>::new());
         assert!(triangles(&Corners::InOrder(3), Mode::Lines).is_none());

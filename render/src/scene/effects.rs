@@ -25,7 +25,13 @@ use crate::tracer::material::Material;
 use crate::tracer::scene::{Mesh, area_lights};
 use crate::tracer::texture::Texture;
 
-pub fn of(mesh: &Mesh, materials: &[Material], textures: &[Texture], cameras: &[Camera], lights: &[Light]) -> Vec<String> {
+pub fn of(
+    mesh: &Mesh,
+    materials: &[Material],
+    textures: &[Texture],
+    cameras: &[Camera],
+    lights: &[Light],
+) -> Vec<String> {
     let mut used = vec![false; materials.len()];
     mesh.material.iter().for_each(|&m| used[m as usize] = true);
     let used_materials = materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
@@ -45,12 +51,16 @@ pub fn of(mesh: &Mesh, materials: &[Material], textures: &[Texture], cameras: &[
 fn suits_light_tree(mesh: &Mesh, materials: &[Material], textures: &[Texture]) -> bool {
     let emits = |t: usize| {
         let m = &materials[mesh.material[t] as usize];
-        m.is_emissive() && Light::triangle(t as u32, &mesh.positions[t], m.emission, m.double_sided).is_some()
+        m.is_emissive()
+            && Light::triangle(t as u32, &mesh.positions[t], m.emission, m.double_sided).is_some()
     };
-    if (0..mesh.len()).filter(|&t| emits(t)).take(LightTree::MIN_LIGHTS).count() == LightTree::MIN_LIGHTS {
+    if (0..mesh.len()).filter(|&t| emits(t)).take(LightTree::MIN_LIGHTS).count()
+        == LightTree::MIN_LIGHTS
+    {
         return true;
     }
     let (area_lights, _) = area_lights(mesh, materials, textures);
     let scatters = |t: usize| materials[mesh.material[t] as usize].scatters();
-    LightTree::over(&area_lights).is_some_and(|tree| tree.suits(&area_lights, &mesh.positions, scatters))
+    LightTree::over(&area_lights)
+        .is_some_and(|tree| tree.suits(&area_lights, &mesh.positions, scatters))
 }

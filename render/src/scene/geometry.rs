@@ -2,16 +2,16 @@
 //! and punctual lights.
 use super::SceneError;
 use super::animation::Pose;
-use super::corners::Corners;
+use super::budget::{self, TriangleBudget};
 use super::camera_light::{camera, punctual};
+use super::corners::Corners;
 use crate::tracer::camera::Camera;
 use crate::tracer::light::Light;
 use crate::tracer::scene::Mesh;
+use glam::{DMat4, DVec3, Mat3, Mat4, Vec2, Vec3, Vec4};
+use rayon::prelude::*;
 use std::borrow::Cow;
 use std::mem::MaybeUninit;
-use glam::{DMat4, DVec3, Mat3, Mat4, Vec2, Vec3, Vec4};
-use super::budget::{self, TriangleBudget};
-use rayon::prelude::*;
 
 pub struct Parts {
     pub mesh: Mesh,
@@ -26,14 +26,28 @@ pub struct Parts {
 /// `max_triangles` is checked from accessor counts before any vertex is read, so a small file
 /// declaring a huge mesh (or instancing one many times) is refused without allocating it.
 /// Nodes `pose` drives use its local transform instead of the file's.
-pub fn load(doc: &gltf::Document, buffers: &[Vec<u8>], material_count: usize, max_triangles: u64, pose: &Pose) -> Result<Parts, SceneError> {
+pub fn load(
+    doc: &gltf::Document,
+    buffers: &[Vec<u8>],
+    material_count: usize,
+    max_triangles: u64,
+    pose: &Pose,
+) -> Result<Parts, SceneError> {
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| SceneError::new("the file has no scene"))?;
     // One allocation of the mesh's vectors, not a doubling series of them and their copies.
     let room = budget::instanced(&scene, doc.nodes().len(), buffers).min(max_triangles) as usize;
-    let source = Source { scene, nodes: doc.nodes().len(), buffers, material_count, max_triangles, pose, room };
+    let source = Source {
+        scene,
+        nodes: doc.nodes().len(),
+        buffers,
+        material_count,
+        max_triangles,
+        pose,
+        room,
+    };
     let mut walked = walk(&source, DVec3::ZERO)?;
     let origin = rebase_origin(&walked.bounds);
     if origin != DVec3::ZERO {
@@ -80,8 +94,14 @@ struct Source<'a> {
 fn walk(src: &Source, origin: DVec3) -> Result<Walked, SceneError> {
     let Source { scene, nodes, buffers, material_count, max_triangles, pose, room } = src;
     let parts = Parts { mesh: Mesh::default(), cameras: Vec::new(), lights: Vec::new() };
-    let mut w = Walked { parts, camera_worlds: Vec::new(), light_worlds: Vec::new(), bounds: Bounds64::default() };
-    let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
+    let mut w = Walked {
+        parts,
+        camera_worlds: Vec::new(),
+        light_worlds: Vec::new(),
+        bounds: Bounds64::default(),
+    };
+    let mut stack: Vec<(gltf::Node, DMat4, usize)> =
+        scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
     // glTF nodes form disjoint trees. A node reached twice (two parents, or a cycle) would be
     // instanced once per path: a few nodes listing the same child twice make 2^depth copies.
     let mut seen = vec![false; *nodes];
@@ -89,12 +109,20 @@ fn walk(src: &Source, origin: DVec3) -> Result<Walked, SceneError> {
     w.parts.mesh.reserve(*room);
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > 256 {
-            return Err(SceneError::new(format!("node {}: hierarchy deeper than 256 levels", node.index())));
+            return Err(SceneError::new(format!(
+                "node {}: hierarchy deeper than 256 levels",
+                node.index()
+            )));
         }
         if std::mem::replace(&mut seen[node.index()], true) {
-            return Err(SceneError::new(format!("node {} appears more than once in the scene's node trees (glTF nodes must form disjoint trees)", node.index())));
+            return Err(SceneError::new(format!(
+                "node {} appears more than once in the scene's node trees (glTF nodes must form disjoint trees)",
+                node.index()
+            )));
         }
-        let local = pose.local(node.index()).unwrap_or_else(|| Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4());
+        let local = pose
+            .local(node.index())
+            .unwrap_or_else(|| Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4());
         let world = parent * local;
         if !world.is_finite() {
             return Err(SceneError::new(format!("node {}: transform is not finite", node.index())));
@@ -105,10 +133,11 @@ fn walk(src: &Source, origin: DVec3) -> Result<Walked, SceneError> {
             add_mesh(&mut sink, &mesh, world, buffers, *material_count)?;
         }
         if let Some(cam) = node.camera()
-            && let gltf::camera::Projection::Perspective(p) = cam.projection() {
-                w.parts.cameras.push(camera(&node, &cam, &p, world.as_mat4())?);
-                w.camera_worlds.push(world);
-            }
+            && let gltf::camera::Projection::Perspective(p) = cam.projection()
+        {
+            w.parts.cameras.push(camera(&node, &cam, &p, world.as_mat4())?);
+            w.camera_worlds.push(world);
+        }
         if let Some(light) = node.light() {
             w.parts.lights.push(punctual(&light, world.as_mat4())?);
             w.light_worlds.push(world);
@@ -155,7 +184,13 @@ struct Sink<'a> {
 }
 
 /// Appends the mesh's triangles to `out`.
-fn add_mesh(out: &mut Sink, mesh: &gltf::Mesh, world64: DMat4, buffers: &[Vec<u8>], material_count: usize) -> Result<(), SceneError> {
+fn add_mesh(
+    out: &mut Sink,
+    mesh: &gltf::Mesh,
+    world64: DMat4,
+    buffers: &[Vec<u8>],
+    material_count: usize,
+) -> Result<(), SceneError> {
     let world = world64.as_mat4();
     let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
     // A mirroring transform flips the winding; swap two corners to keep front faces in front.
@@ -164,27 +199,45 @@ fn add_mesh(out: &mut Sink, mesh: &gltf::Mesh, world64: DMat4, buffers: &[Vec<u8
         let at = |what: &str| format!("mesh {} primitive {}: {what}", mesh.index(), prim.index());
         super::accessors::check_primitive(&prim, buffers, &at)?;
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.as_slice()));
-        let position_accessor = prim.get(&gltf::Semantic::Positions).ok_or_else(|| SceneError::new(at("no POSITION attribute")))?;
-        let positions: Cow<[[f32; 3]]> = match super::accessors::packed_vec3(&position_accessor, buffers) {
-            Some(packed) => Cow::Borrowed(packed),
-            None => Cow::Owned(reader.read_positions().ok_or_else(|| SceneError::new(at("no POSITION attribute")))?.collect()),
-        };
+        let position_accessor = prim
+            .get(&gltf::Semantic::Positions)
+            .ok_or_else(|| SceneError::new(at("no POSITION attribute")))?;
+        let positions: Cow<[[f32; 3]]> =
+            match super::accessors::packed_vec3(&position_accessor, buffers) {
+                Some(packed) => Cow::Borrowed(packed),
+                None => Cow::Owned(
+                    reader
+                        .read_positions()
+                        .ok_or_else(|| SceneError::new(at("no POSITION attribute")))?
+                        .collect(),
+                ),
+            };
         if positions.is_empty() {
             return Err(SceneError::new(at("POSITION has no vertices")));
         }
-        if let Some(k) = positions.par_iter().with_min_len(SLICE).position_first(|p| !p.iter().all(|c| c.is_finite())) {
+        if let Some(k) = positions
+            .par_iter()
+            .with_min_len(SLICE)
+            .position_first(|p| !p.iter().all(|c| c.is_finite()))
+        {
             return Err(SceneError::new(at(&format!("POSITION {k} is not finite"))));
         }
         let normals: Option<Vec<Vec3>> = reader.read_normals().map(|n| n.map(Vec3::from).collect());
-        let tangents: Option<Vec<Vec4>> = reader.read_tangents().map(|t| t.map(Vec4::from).collect());
-        let uv = |set| reader.read_tex_coords(set).map(|t| t.into_f32().map(Vec2::from).collect::<Vec<_>>());
+        let tangents: Option<Vec<Vec4>> =
+            reader.read_tangents().map(|t| t.map(Vec4::from).collect());
+        let uv = |set| {
+            reader.read_tex_coords(set).map(|t| t.into_f32().map(Vec2::from).collect::<Vec<_>>())
+        };
         let uvs = [uv(0), uv(1)];
         let corners = match reader.read_indices() {
             Some(ix) => Corners::Listed(ix.into_u32().collect()),
             None => Corners::InOrder(positions.len() as u32),
         };
         if let Some(bad) = corners.out_of_range(positions.len()) {
-            return Err(SceneError::new(at(&format!("index {bad} out of range (POSITION count {})", positions.len()))));
+            return Err(SceneError::new(at(&format!(
+                "index {bad} out of range (POSITION count {})",
+                positions.len()
+            ))));
         }
         check_len(&at, "NORMAL", normals.as_ref().map(Vec::len), positions.len())?;
         check_len(&at, "TANGENT", tangents.as_ref().map(Vec::len), positions.len())?;
@@ -195,17 +248,25 @@ fn add_mesh(out: &mut Sink, mesh: &gltf::Mesh, world64: DMat4, buffers: &[Vec<u8
             Some(m) => return Err(SceneError::new(at(&format!("material {m} does not exist")))),
             None => material_count as u32, // glTF's default material, appended by the loader
         };
-        let (count, corners_of) = corners.indexed(prim.mode()).ok_or_else(|| SceneError::new(at("not a triangle mode (points and lines have no area)")))?;
+        let (count, corners_of) = corners.indexed(prim.mode()).ok_or_else(|| {
+            SceneError::new(at("not a triangle mode (points and lines have no area)"))
+        })?;
         let corners_at = |t: usize| {
             let [a, b, c] = corners_of(t);
             if mirrored { [a, c, b] } else { [a, b, c] }
         };
-        let world_corners = |t: usize| corners_at(t).map(|i| world64.transform_point3(Vec3::from(positions[i as usize]).as_dvec3()));
+        let world_corners = |t: usize| {
+            corners_at(t)
+                .map(|i| world64.transform_point3(Vec3::from(positions[i as usize]).as_dvec3()))
+        };
         let origin = out.origin;
-        let posed_into = |positions: &mut Vec<[Vec3; 3]>, faces: &mut Vec<Vec3>| pose(positions, faces, count, world_corners, origin);
+        let posed_into = |positions: &mut Vec<[Vec3; 3]>, faces: &mut Vec<Vec3>| {
+            pose(positions, faces, count, world_corners, origin)
+        };
         if normals.is_none() && uvs.iter().all(Option::is_none) && tangents.is_none() {
             let box64 = out.mesh.extend_flat(count, material, posed_into);
-            (out.bounds.lo, out.bounds.hi) = (out.bounds.lo.min(box64.lo), out.bounds.hi.max(box64.hi));
+            (out.bounds.lo, out.bounds.hi) =
+                (out.bounds.lo.min(box64.lo), out.bounds.hi.max(box64.hi));
             continue;
         }
         let mut faces = Vec::new();
@@ -225,7 +286,9 @@ fn add_mesh(out: &mut Sink, mesh: &gltf::Mesh, world64: DMat4, buffers: &[Vec<u8
             });
             // Tangents lie in the surface: they transform like positions (w, the handedness,
             // flips with a mirroring transform). Zero marks "none" (normal maps use UVs).
-            let tg = tangents.as_ref().map(|ts| corners.map(|i| tangent(ts[i as usize], world, mirrored)));
+            let tg = tangents
+                .as_ref()
+                .map(|ts| corners.map(|i| tangent(ts[i as usize], world, mirrored)));
             // Flat normals, absent UVs and tangents take no memory (see tracer::mesh).
             out.mesh.push_attributes(n, t, tg, material);
         }
@@ -239,7 +302,13 @@ fn add_mesh(out: &mut Sink, mesh: &gltf::Mesh, world64: DMat4, buffers: &[Vec<u8
 /// at a time: the transforms are most of a frame's walk, and a box's minima and maxima are
 /// exact in any order. Written straight into the vectors' spare room: filling it with zeros
 /// first would be two more passes over a frame's 48 MB.
-fn pose(positions: &mut Vec<[Vec3; 3]>, faces: &mut Vec<Vec3>, count: usize, world: impl Fn(usize) -> [DVec3; 3] + Sync, origin: DVec3) -> Bounds64 {
+fn pose(
+    positions: &mut Vec<[Vec3; 3]>,
+    faces: &mut Vec<Vec3>,
+    count: usize,
+    world: impl Fn(usize) -> [DVec3; 3] + Sync,
+    origin: DVec3,
+) -> Bounds64 {
     fn room<T>(v: &mut Vec<T>, count: usize) -> &mut [MaybeUninit<T>] {
         v.reserve(count);
         &mut v.spare_capacity_mut()[..count]
@@ -256,7 +325,12 @@ fn pose(positions: &mut Vec<[Vec3; 3]>, faces: &mut Vec<Vec3>, count: usize, wor
     };
     let union = |a: Bounds64, b: Bounds64| Bounds64 { lo: a.lo.min(b.lo), hi: a.hi.max(b.hi) };
     let (ps, fs) = (room(positions, count), room(faces, count));
-    let bounds = ps.par_chunks_mut(SLICE).zip(fs.par_chunks_mut(SLICE)).enumerate().map(|(k, (ps, fs))| slice(k, ps, fs)).reduce(Bounds64::default, union);
+    let bounds = ps
+        .par_chunks_mut(SLICE)
+        .zip(fs.par_chunks_mut(SLICE))
+        .enumerate()
+        .map(|(k, (ps, fs))| slice(k, ps, fs))
+        .reduce(Bounds64::default, union);
     // SAFETY: the chunks cover both rooms, and each slot of a chunk was written above; a panic
     // in `world` would have unwound before the lengths grow.
     unsafe {
@@ -275,9 +349,16 @@ fn tangent(t: Vec4, world: Mat4, mirrored: bool) -> Vec4 {
     if xyz == Vec3::ZERO || !xyz.is_finite() { Vec4::ZERO } else { xyz.extend(w) }
 }
 
-fn check_len(at: &dyn Fn(&str) -> String, name: &str, len: Option<usize>, expected: usize) -> Result<(), SceneError> {
+fn check_len(
+    at: &dyn Fn(&str) -> String,
+    name: &str,
+    len: Option<usize>,
+    expected: usize,
+) -> Result<(), SceneError> {
     match len {
-        Some(n) if n != expected => Err(SceneError::new(at(&format!("{name} count {n} differs from POSITION count {expected}")))),
+        Some(n) if n != expected => Err(SceneError::new(at(&format!(
+            "{name} count {n} differs from POSITION count {expected}"
+        )))),
         _ => Ok(()),
     }
 }

@@ -17,22 +17,39 @@ pub fn default_material() -> Material {
     Material { model: MaterialModel::Pbr(pbr), ..Material::lambert("default", Vec3::ONE) }
 }
 
-pub fn load_materials(doc: &gltf::Document, pool: &mut TexturePool) -> Result<Vec<Material>, SceneError> {
+pub fn load_materials(
+    doc: &gltf::Document,
+    pool: &mut TexturePool,
+) -> Result<Vec<Material>, SceneError> {
     doc.materials().map(|m| material(&m, pool)).collect()
 }
 
 /// The binding of a `textureInfo` slot.
-fn info(slot: &str, info: Option<gltf::texture::Info>, pool: &mut TexturePool, space: ColourSpace) -> Result<Option<TextureRef>, String> {
+fn info(
+    slot: &str,
+    info: Option<gltf::texture::Info>,
+    pool: &mut TexturePool,
+    space: ColourSpace,
+) -> Result<Option<TextureRef>, String> {
     let Some(info) = info else { return Ok(None) };
     let t = pool.bind(info.texture().index(), info.tex_coord(), Transform::of_info(&info), space);
     t.map(Some).map_err(|e| format!("{slot}: {e}"))
 }
 
-fn normal_texture(m: &gltf::Material, pool: &mut TexturePool) -> Result<Option<NormalTexture>, String> {
+fn normal_texture(
+    m: &gltf::Material,
+    pool: &mut TexturePool,
+) -> Result<Option<NormalTexture>, String> {
     let Some(n) = m.normal_texture() else { return Ok(None) };
     let at = |e: String| format!("normalTexture: {e}");
-    let transform = n.extension_value("KHR_texture_transform").map(Transform::of_json).transpose().map_err(at)?;
-    let texture = pool.bind(n.texture().index(), n.tex_coord(), transform, ColourSpace::Linear).map_err(at)?;
+    let transform = n
+        .extension_value("KHR_texture_transform")
+        .map(Transform::of_json)
+        .transpose()
+        .map_err(at)?;
+    let texture = pool
+        .bind(n.texture().index(), n.tex_coord(), transform, ColourSpace::Linear)
+        .map_err(at)?;
     if !n.scale().is_finite() {
         return Err(at(format!("scale {} must be finite", n.scale())));
     }
@@ -47,9 +64,17 @@ fn material(m: &gltf::Material, pool: &mut TexturePool) -> Result<Material, Scen
     if !emission.is_finite() || emission.min_element() < 0.0 {
         return Err(at(format!("emission {emission} must be finite and ≥ 0")));
     }
-    let base_color_texture = info("baseColorTexture", pbr.base_color_texture(), pool, ColourSpace::Srgb).map_err(at)?;
-    let metallic_roughness_texture = info("metallicRoughnessTexture", pbr.metallic_roughness_texture(), pool, ColourSpace::Linear).map_err(at)?;
-    let emissive_texture = info("emissiveTexture", m.emissive_texture(), pool, ColourSpace::Srgb).map_err(at)?;
+    let base_color_texture =
+        info("baseColorTexture", pbr.base_color_texture(), pool, ColourSpace::Srgb).map_err(at)?;
+    let metallic_roughness_texture = info(
+        "metallicRoughnessTexture",
+        pbr.metallic_roughness_texture(),
+        pool,
+        ColourSpace::Linear,
+    )
+    .map_err(at)?;
+    let emissive_texture =
+        info("emissiveTexture", m.emissive_texture(), pool, ColourSpace::Srgb).map_err(at)?;
     let normal_texture = normal_texture(m, pool).map_err(at)?;
     let model = match m.extension_value(PHONG_EXTENSION) {
         Some(v) => MaterialModel::Phong(phong(v).map_err(at)?),
@@ -82,7 +107,10 @@ fn material(m: &gltf::Material, pool: &mut TexturePool) -> Result<Material, Scen
 
 /// `KHR_materials_transmission` (+ `_ior`, `_volume`) → [`Glass`]; None without transmission.
 /// Transmission, thickness and volume textures are not read (their factors are).
-fn glass(m: &gltf::Material, pbr: &gltf::material::PbrMetallicRoughness) -> Result<Option<Glass>, String> {
+fn glass(
+    m: &gltf::Material,
+    pbr: &gltf::material::PbrMetallicRoughness,
+) -> Result<Option<Glass>, String> {
     let Some(t) = m.transmission() else { return Ok(None) };
     let factor = t.transmission_factor();
     if !(0.0..=1.0).contains(&factor) {
@@ -99,7 +127,9 @@ fn glass(m: &gltf::Material, pbr: &gltf::material::PbrMetallicRoughness) -> Resu
         Some(v) => {
             let (colour, distance) = (Vec3::from(v.attenuation_color()), v.attenuation_distance());
             if !(distance > 0.0 && colour.min_element() > 0.0 && colour.max_element() <= 1.0) {
-                return Err(format!("KHR_materials_volume: attenuationDistance {distance} must be > 0 and attenuationColor {colour} in (0, 1]"));
+                return Err(format!(
+                    "KHR_materials_volume: attenuationDistance {distance} must be > 0 and attenuationColor {colour} in (0, 1]"
+                ));
             }
             // Infinite distance (the default) means no absorption.
             if distance.is_finite() { -colour.map(f32::ln) / distance } else { Vec3::ZERO }
@@ -109,7 +139,10 @@ fn glass(m: &gltf::Material, pbr: &gltf::material::PbrMetallicRoughness) -> Resu
     Ok(Some(Glass { weight, ior, alpha: roughness * roughness, thin: volume.is_none(), sigma_a }))
 }
 
-fn metallic_roughness(m: &gltf::Material, pbr: &gltf::material::PbrMetallicRoughness) -> Result<Pbr, String> {
+fn metallic_roughness(
+    m: &gltf::Material,
+    pbr: &gltf::material::PbrMetallicRoughness,
+) -> Result<Pbr, String> {
     let base_color = Vec4::from(pbr.base_color_factor()).truncate();
     let (specular, specular_color) = m
         .specular()
@@ -122,13 +155,20 @@ fn metallic_roughness(m: &gltf::Material, pbr: &gltf::material::PbrMetallicRough
         specular_color,
         ior: m.ior().unwrap_or(1.5),
     };
-    let unit = [("metallicFactor", p.metallic), ("roughnessFactor", p.roughness), ("specularFactor", p.specular)];
+    let unit = [
+        ("metallicFactor", p.metallic),
+        ("roughnessFactor", p.roughness),
+        ("specularFactor", p.specular),
+    ];
     for (name, v) in unit {
         if !(0.0..=1.0).contains(&v) {
             return Err(format!("{name} {v} is outside [0, 1]"));
         }
     }
-    if !(base_color.is_finite() && base_color.min_element() >= 0.0 && base_color.max_element() <= 1.0) {
+    if !(base_color.is_finite()
+        && base_color.min_element() >= 0.0
+        && base_color.max_element() <= 1.0)
+    {
         return Err(format!("baseColorFactor {base_color} is outside [0, 1]"));
     }
     if !(specular_color.is_finite() && specular_color.min_element() >= 0.0) {
@@ -142,13 +182,19 @@ fn metallic_roughness(m: &gltf::Material, pbr: &gltf::material::PbrMetallicRough
 
 fn phong(v: &serde_json::Value) -> Result<Phong, String> {
     let rgb = |key: &str| -> Result<Vec3, String> {
-        let a = v.get(key).and_then(|x| x.as_array()).ok_or(format!("{PHONG_EXTENSION}.{key} must be an array of 3 numbers"))?;
+        let a = v
+            .get(key)
+            .and_then(|x| x.as_array())
+            .ok_or(format!("{PHONG_EXTENSION}.{key} must be an array of 3 numbers"))?;
         let c: Vec<f32> = a.iter().filter_map(|x| x.as_f64()).map(|x| x as f32).collect();
         match c[..] {
             [r, g, b] if a.len() == 3 => Ok(Vec3::new(r, g, b)),
             _ => Err(format!("{PHONG_EXTENSION}.{key} must be an array of 3 numbers")),
         }
     };
-    let n = v.get("n").and_then(|x| x.as_f64()).ok_or(format!("{PHONG_EXTENSION}.n must be a number"))? as f32;
+    let n = v
+        .get("n")
+        .and_then(|x| x.as_f64())
+        .ok_or(format!("{PHONG_EXTENSION}.n must be a number"))? as f32;
     Phong::new(rgb("kd")?, rgb("ks")?, n).map_err(|e| format!("{PHONG_EXTENSION}: {e}"))
 }

@@ -15,10 +15,10 @@
 //! Every error names what is wrong and where ("mesh 3 primitive 0: POSITION accessor count 0").
 //! External files may only be plain relative paths below the scene's own directory.
 mod accessors;
+pub mod animation;
 mod budget;
 mod camera_light;
 mod corners;
-pub mod animation;
 pub mod effects;
 mod geometry;
 mod materials;
@@ -56,10 +56,12 @@ pub struct SceneInfo {
 
 /// Loads a `.gltf` or `.glb` file; external resources resolve relative to its directory.
 pub fn load_path(path: &Path) -> Result<Scene, SceneError> {
-    let bytes = std::fs::read(path).map_err(|e| SceneError::new(format!("cannot read {}: {e}", path.display())))?;
+    let bytes = std::fs::read(path)
+        .map_err(|e| SceneError::new(format!("cannot read {}: {e}", path.display())))?;
     // The file (a .glb's binary chunk) is freed before the build, whose peak is most of a
     // large scene's memory.
-    let parsed = Sequence::parse_owned(bytes, path.parent(), DEFAULT_MAX_TRIANGLES)?.parsed_at(None, 0.0)?;
+    let parsed =
+        Sequence::parse_owned(bytes, path.parent(), DEFAULT_MAX_TRIANGLES)?.parsed_at(None, 0.0)?;
     Ok(parsed.build())
 }
 
@@ -104,14 +106,26 @@ impl Parsed {
         match previous.accel.refit_with_faces(&self.mesh.positions, &faces) {
             Some(accel) if !accel.worn() => (self.with_accel(accel, faces), Preparation::Refit),
             _ => {
-                let accel = Accel::build_with_normals(&self.mesh.positions, &faces.normals, BvhKind::Wide, self.refittable);
+                let accel = Accel::build_with_normals(
+                    &self.mesh.positions,
+                    &faces.normals,
+                    BvhKind::Wide,
+                    self.refittable,
+                );
                 (self.with_accel(accel, faces), Preparation::Build)
             }
         }
     }
 
     fn with_accel(self, accel: Accel, faces: Faces) -> Scene {
-        Scene::with_accel(self.mesh, self.materials, self.textures, self.cameras, self.lights, (accel, faces))
+        Scene::with_accel(
+            self.mesh,
+            self.materials,
+            self.textures,
+            self.cameras,
+            self.lights,
+            (accel, faces),
+        )
     }
 
     pub fn triangles(&self) -> usize {
@@ -142,7 +156,10 @@ pub enum Preparation {
 
 /// The animation a job's `selector` names (a name first, then a decimal index); None selects
 /// the first animation, or none when the scene has none. The error lists the scene's animations.
-pub fn resolve_animation(parsed: &Parsed, selector: Option<&str>) -> Result<Option<usize>, SceneError> {
+pub fn resolve_animation(
+    parsed: &Parsed,
+    selector: Option<&str>,
+) -> Result<Option<usize>, SceneError> {
     animation::resolve(&parsed.animations, selector)
 }
 
@@ -157,7 +174,11 @@ pub fn parse(bytes: &[u8], base: Option<&Path>) -> Result<Parsed, SceneError> {
 
 /// [`parse`] refusing scenes of more than `max_triangles` triangles before reading their
 /// vertices (counted from accessor counts, so a "triangle bomb" costs no memory).
-pub fn parse_limited(bytes: &[u8], base: Option<&Path>, max_triangles: u64) -> Result<Parsed, SceneError> {
+pub fn parse_limited(
+    bytes: &[u8],
+    base: Option<&Path>,
+    max_triangles: u64,
+) -> Result<Parsed, SceneError> {
     Sequence::parse_limited(bytes, base, max_triangles)?.parsed_at(None, 0.0)
 }
 
@@ -165,7 +186,11 @@ pub fn parse_limited(bytes: &[u8], base: Option<&Path>, max_triangles: u64) -> R
 pub fn info(scene: &Scene) -> SceneInfo {
     SceneInfo {
         triangles: scene.mesh.len(),
-        emissive_triangles: scene.tri_light.iter().filter(|&&l| l != crate::tracer::scene::NO_LIGHT).count(),
+        emissive_triangles: scene
+            .tri_light
+            .iter()
+            .filter(|&&l| l != crate::tracer::scene::NO_LIGHT)
+            .count(),
         punctual_lights: scene.lights.len()
             - scene.tri_light.iter().filter(|&&l| l != crate::tracer::scene::NO_LIGHT).count(),
         cameras: scene.cameras.iter().map(|c| c.name.clone()).collect(),
@@ -174,7 +199,6 @@ pub fn info(scene: &Scene) -> SceneInfo {
 
 #[cfg(test)]
 mod tests;
-
 
 /// Packs a glTF JSON document and its binary buffer into a `.glb` container (glTF 2.0 §4.4:
 /// 12-byte header, a JSON chunk padded with spaces, a BIN chunk padded with zeros).

@@ -8,7 +8,8 @@ fn scenes_dir() -> PathBuf {
 #[test]
 fn bundled_scenes_load() {
     for name in ["cornell-box", "furnace", "glossy", "phong", "punctual"] {
-        let scene = load_path(&scenes_dir().join(format!("{name}.gltf"))).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let scene = load_path(&scenes_dir().join(format!("{name}.gltf")))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
         let info = info(&scene);
         assert!(info.triangles > 0, "{name}");
         assert!(!info.cameras.is_empty(), "{name} has a camera");
@@ -22,7 +23,11 @@ fn cornell_box_has_its_light_and_camera() {
     assert_eq!(info.emissive_triangles, 2, "the light quad");
     assert_eq!(info.punctual_lights, 0);
     let light = scene.materials.iter().find(|m| m.is_emissive()).unwrap();
-    assert!((light.emission - glam::Vec3::new(17.0, 12.0, 4.0)).length() < 1e-4, "{}", light.emission);
+    assert!(
+        (light.emission - glam::Vec3::new(17.0, 12.0, 4.0)).length() < 1e-4,
+        "{}",
+        light.emission
+    );
     assert!(scene.camera(None).is_ok());
     assert!(scene.camera(Some("nope")).unwrap_err().to_string().contains("no camera named"));
 }
@@ -44,7 +49,10 @@ pub fn triangle_gltf(with_camera: bool, extra_material: &str) -> String {
     }
     let data = base64::engine::general_purpose::STANDARD.encode(&bin);
     let (cam_node, cams) = if with_camera {
-        (r#",{"camera":0,"translation":[0,0,3]}"#, r#","cameras":[{"type":"perspective","perspective":{"yfov":0.8,"znear":0.01}}]"#)
+        (
+            r#",{"camera":0,"translation":[0,0,3]}"#,
+            r#","cameras":[{"type":"perspective","perspective":{"yfov":0.8,"znear":0.01}}]"#,
+        )
     } else {
         ("", "")
     };

@@ -37,13 +37,23 @@ pub struct TexturePool {
 
 impl TexturePool {
     /// Decodes every image of the document.
-    pub fn load(doc: &gltf::Document, base: Option<&Path>, buffers: &[Vec<u8>]) -> Result<TexturePool, SceneError> {
+    pub fn load(
+        doc: &gltf::Document,
+        base: Option<&Path>,
+        buffers: &[Vec<u8>],
+    ) -> Result<TexturePool, SceneError> {
         let mut budget = MAX_TEXTURE_PIXELS;
         let images = doc
             .images()
-            .map(|img| decode_image(&img, base, buffers, &mut budget).map_err(|e| SceneError::new(format!("image {}: {e}", img.index()))))
+            .map(|img| {
+                decode_image(&img, base, buffers, &mut budget)
+                    .map_err(|e| SceneError::new(format!("image {}: {e}", img.index())))
+            })
             .collect::<Result<Vec<_>, _>>()?;
-        let sources = doc.textures().map(|t| (t.source().index(), wrap(t.sampler().wrap_s()), wrap(t.sampler().wrap_t()))).collect();
+        let sources = doc
+            .textures()
+            .map(|t| (t.source().index(), wrap(t.sampler().wrap_s()), wrap(t.sampler().wrap_t())))
+            .collect();
         Ok(TexturePool { sources, images, made: HashMap::new(), textures: Vec::new() })
     }
 
@@ -52,11 +62,20 @@ impl TexturePool {
         if let Some(&t) = self.made.get(&(index, space)) {
             return Ok(t);
         }
-        let &(image, wrap_s, wrap_t) = self.sources.get(index).ok_or(format!("texture {index} does not exist"))?;
-        let (width, height, stored) = self.images.get(image).ok_or(format!("texture {index}: image {image} does not exist"))?;
+        let &(image, wrap_s, wrap_t) =
+            self.sources.get(index).ok_or(format!("texture {index} does not exist"))?;
+        let (width, height, stored) = self
+            .images
+            .get(image)
+            .ok_or(format!("texture {index}: image {image} does not exist"))?;
         let texels = match space {
             ColourSpace::Linear => stored.clone(),
-            ColourSpace::Srgb => stored.iter().map(|p| Vec4::new(srgb_to_linear(p.x), srgb_to_linear(p.y), srgb_to_linear(p.z), p.w)).collect(),
+            ColourSpace::Srgb => stored
+                .iter()
+                .map(|p| {
+                    Vec4::new(srgb_to_linear(p.x), srgb_to_linear(p.y), srgb_to_linear(p.z), p.w)
+                })
+                .collect(),
         };
         self.textures.push(Texture { width: *width, height: *height, texels, wrap_s, wrap_t });
         let t = self.textures.len() as u32 - 1;
@@ -66,7 +85,13 @@ impl TexturePool {
 
     /// A material slot's binding: glTF texture `index` on UV set `tex_coord`, with the slot's
     /// `KHR_texture_transform` (if any).
-    pub fn bind(&mut self, index: usize, tex_coord: u32, transform: Option<Transform>, space: ColourSpace) -> Result<TextureRef, String> {
+    pub fn bind(
+        &mut self,
+        index: usize,
+        tex_coord: u32,
+        transform: Option<Transform>,
+        space: ColourSpace,
+    ) -> Result<TextureRef, String> {
         let texture = self.get(index, space)?;
         let t = transform.unwrap_or_default();
         let finite = t.offset.is_finite() && t.rotation.is_finite() && t.scale.is_finite();
@@ -77,7 +102,11 @@ impl TexturePool {
         if tex_coord > 1 {
             return Err(format!("texCoord {tex_coord}: only TEXCOORD_0 and TEXCOORD_1 are read"));
         }
-        Ok(TextureRef { texture, tex_coord, transform: UvTransform::from_gltf(t.offset, t.rotation, t.scale) })
+        Ok(TextureRef {
+            texture,
+            tex_coord,
+            transform: UvTransform::from_gltf(t.offset, t.rotation, t.scale),
+        })
     }
 
     pub fn finish(self) -> Vec<Texture> {
@@ -104,7 +133,12 @@ impl Transform {
     /// From a `textureInfo` (the gltf crate parses the extension there).
     pub fn of_info(info: &gltf::texture::Info) -> Option<Transform> {
         let t = info.texture_transform()?;
-        Some(Transform { offset: t.offset().into(), rotation: t.rotation(), scale: t.scale().into(), tex_coord: t.tex_coord() })
+        Some(Transform {
+            offset: t.offset().into(),
+            rotation: t.rotation(),
+            scale: t.scale().into(),
+            tex_coord: t.tex_coord(),
+        })
     }
 
     /// From the extension's JSON (on `normalTexture`, which the gltf crate leaves unparsed).
@@ -122,9 +156,18 @@ impl Transform {
         };
         let tex_coord = match v.get("texCoord") {
             None => None,
-            Some(t) => Some(t.as_u64().and_then(|t| u32::try_from(t).ok()).ok_or("KHR_texture_transform.texCoord must be a non-negative integer")?),
+            Some(t) => Some(
+                t.as_u64()
+                    .and_then(|t| u32::try_from(t).ok())
+                    .ok_or("KHR_texture_transform.texCoord must be a non-negative integer")?,
+            ),
         };
-        Ok(Transform { offset: pair("offset", Vec2::ZERO)?, rotation, scale: pair("scale", Vec2::ONE)?, tex_coord })
+        Ok(Transform {
+            offset: pair("offset", Vec2::ZERO)?,
+            rotation,
+            scale: pair("scale", Vec2::ONE)?,
+            tex_coord,
+        })
     }
 }
 
@@ -136,10 +179,17 @@ fn wrap(w: gltf::texture::WrappingMode) -> Wrap {
     }
 }
 
-fn decode_image(img: &gltf::Image, base: Option<&Path>, buffers: &[Vec<u8>], budget: &mut u64) -> Result<(u32, u32, Vec<Vec4>), String> {
+fn decode_image(
+    img: &gltf::Image,
+    base: Option<&Path>,
+    buffers: &[Vec<u8>],
+    budget: &mut u64,
+) -> Result<(u32, u32, Vec<Vec4>), String> {
     let encoded = match img.source() {
         gltf::image::Source::View { view, .. } => {
-            let buf = buffers.get(view.buffer().index()).ok_or("buffer view refers to a missing buffer")?;
+            let buf = buffers
+                .get(view.buffer().index())
+                .ok_or("buffer view refers to a missing buffer")?;
             let end = view.offset().checked_add(view.length()).ok_or("buffer view overflows")?;
             buf.get(view.offset()..end).ok_or("buffer view lies outside its buffer")?.to_vec()
         }
@@ -153,10 +203,14 @@ fn decode_image(img: &gltf::Image, base: Option<&Path>, buffers: &[Vec<u8>], bud
         return Err(format!("image is {w}×{h}"));
     }
     if w as u64 * h as u64 > *budget {
-        return Err(format!("image is {w}×{h}; a scene's textures may hold at most {MAX_TEXTURE_PIXELS} pixels in all ({} left)", *budget));
+        return Err(format!(
+            "image is {w}×{h}; a scene's textures may hold at most {MAX_TEXTURE_PIXELS} pixels in all ({} left)",
+            *budget
+        ));
     }
     *budget -= w as u64 * h as u64;
-    let decoded = image::load_from_memory(&encoded).map_err(|e| format!("cannot decode image: {e}"))?;
+    let decoded =
+        image::load_from_memory(&encoded).map_err(|e| format!("cannot decode image: {e}"))?;
     let texels = decoded.to_rgba32f().pixels().map(|p| Vec4::from(p.0)).collect();
     Ok((w, h, texels))
 }
@@ -168,10 +222,25 @@ mod tests {
 
     #[test]
     fn transforms_are_read_and_checked() {
-        let t = Transform::of_json(&json!({"offset": [0.5, 0.0], "scale": [2.0, 2.0], "texCoord": 1})).unwrap();
-        assert_eq!(t, Transform { offset: Vec2::new(0.5, 0.0), rotation: 0.0, scale: Vec2::splat(2.0), tex_coord: Some(1) });
+        let t =
+            Transform::of_json(&json!({"offset": [0.5, 0.0], "scale": [2.0, 2.0], "texCoord": 1}))
+                .unwrap();
+        assert_eq!(
+            t,
+            Transform {
+                offset: Vec2::new(0.5, 0.0),
+                rotation: 0.0,
+                scale: Vec2::splat(2.0),
+                tex_coord: Some(1)
+            }
+        );
         assert_eq!(Transform::of_json(&json!({})).unwrap(), Transform::default());
-        for bad in [json!({"offset": [1.0]}), json!({"scale": "big"}), json!({"rotation": [1]}), json!({"texCoord": -1})] {
+        for bad in [
+            json!({"offset": [1.0]}),
+            json!({"scale": "big"}),
+            json!({"rotation": [1]}),
+            json!({"texCoord": -1}),
+        ] {
             let e = Transform::of_json(&bad).unwrap_err();
             assert!(e.contains("KHR_texture_transform."), "{e}");
         }

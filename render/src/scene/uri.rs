@@ -4,15 +4,23 @@ use base64::Engine;
 use std::path::{Component, Path, PathBuf};
 
 /// Raw bytes of every buffer, in document order.
-pub fn load_buffers(doc: &gltf::Document, base: Option<&Path>, mut blob: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>, SceneError> {
+pub fn load_buffers(
+    doc: &gltf::Document,
+    base: Option<&Path>,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<Vec<u8>>, SceneError> {
     let mut out = Vec::new();
     for buffer in doc.buffers() {
         let i = buffer.index();
         let mut data = match buffer.source() {
-            gltf::buffer::Source::Bin => blob
-                .take()
-                .ok_or_else(|| SceneError::new(format!("buffer {i}: refers to the GLB binary chunk, which is missing")))?,
-            gltf::buffer::Source::Uri(uri) => resolve(uri, base).map_err(|e| SceneError::new(format!("buffer {i}: {e}")))?,
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
+                SceneError::new(format!(
+                    "buffer {i}: refers to the GLB binary chunk, which is missing"
+                ))
+            })?,
+            gltf::buffer::Source::Uri(uri) => {
+                resolve(uri, base).map_err(|e| SceneError::new(format!("buffer {i}: {e}")))?
+            }
         };
         if data.len() < buffer.length() {
             return Err(SceneError::new(format!(
@@ -65,9 +73,20 @@ mod tests {
 
     #[test]
     fn data_uris_decode_and_paths_cannot_escape() {
-        assert_eq!(resolve("data:application/octet-stream;base64,AAEC", None).unwrap(), vec![0, 1, 2]);
+        assert_eq!(
+            resolve("data:application/octet-stream;base64,AAEC", None).unwrap(),
+            vec![0, 1, 2]
+        );
         assert!(resolve("data:application/octet-stream,AAEC", None).is_err());
-        for bad in ["../secret.bin", "/etc/passwd", "a/../../b.bin", "file:///etc/passwd", "http://x/y.bin", "C:\\x.bin", "%2e%2e/x.bin"] {
+        for bad in [
+            "../secret.bin",
+            "/etc/passwd",
+            "a/../../b.bin",
+            "file:///etc/passwd",
+            "http://x/y.bin",
+            "C:\\x.bin",
+            "%2e%2e/x.bin",
+        ] {
             let e = resolve(bad, Some(Path::new("/tmp"))).unwrap_err();
             assert!(e.contains("relative") || e.contains("leaves"), "{bad}: {e}");
         }

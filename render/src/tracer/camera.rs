@@ -133,7 +133,10 @@ mod tests {
     #[test]
     fn node_rotation_turns_the_view() {
         // 180° about Y: the camera looks down +Z with +X on the image's left.
-        let to_world = Mat4::from_rotation_translation(glam::Quat::from_xyzw(0.0, 1.0, 0.0, 0.0), Vec3::new(1.0, 2.0, 3.0));
+        let to_world = Mat4::from_rotation_translation(
+            glam::Quat::from_xyzw(0.0, 1.0, 0.0, 0.0),
+            Vec3::new(1.0, 2.0, 3.0),
+        );
         let cam = Camera::pinhole("c", to_world, 0.5);
         let r = cam.raster(64, 64);
         let centre = r.ray(32, 32, Vec2::ZERO);

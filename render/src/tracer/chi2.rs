@@ -348,11 +348,7 @@ mod tests {
     fn incomplete_gamma_matches_tables() {
         // χ² quantiles x with upper tail q at dof 1, 10, 100; at dof 2, Q is e^{−x/2}.
         let dofs = [1.0, 10.0, 100.0];
-        let xs = [
-            3.841_458_820_694_124,
-            23.209_251_158_954_36,
-            149.449_252_779_038_6,
-        ];
+        let xs = [3.841_458_820_694_124, 23.209_251_158_954_36, 149.449_252_779_038_6];
         for (k, q) in [0.05, 0.01, 0.001].into_iter().enumerate() {
             let got = gamma_q(0.5 * dofs[k], 0.5 * xs[k]);
             assert!((got - q).abs() < 1e-9 * q, "dof {}: {got}", dofs[k]);

@@ -78,11 +78,18 @@ impl Effects {
     }
 
     pub fn names(self) -> Vec<String> {
-        Effects::NAMED.iter().filter(|(e, _)| self.contains(*e)).map(|(_, n)| n.to_string()).collect()
+        Effects::NAMED
+            .iter()
+            .filter(|(e, _)| self.contains(*e))
+            .map(|(_, n)| n.to_string())
+            .collect()
     }
 
     /// The effects of the materials used by `used_materials` and of `lights`.
-    pub fn analyse<'m>(used_materials: impl Iterator<Item = &'m Material>, lights: &[Light]) -> Effects {
+    pub fn analyse<'m>(
+        used_materials: impl Iterator<Item = &'m Material>,
+        lights: &[Light],
+    ) -> Effects {
         let (mut e, mut scatters) = (Effects::NONE, false);
         for m in used_materials {
             e = e | m.effects();
@@ -106,7 +113,9 @@ impl Effects {
     /// The kernel that covers these effects and nothing more.
     pub fn kernel(self) -> KernelBits {
         let mut k = 0;
-        if self.intersects(Effects(Effects::GGX.0 | Effects::PHONG.0 | Effects::TEXTURES.0 | Effects::NORMAL_MAPS.0)) {
+        if self.intersects(Effects(
+            Effects::GGX.0 | Effects::PHONG.0 | Effects::TEXTURES.0 | Effects::NORMAL_MAPS.0,
+        )) {
             k |= KernelBits::SURFACES;
         }
         if self.intersects(Effects(Effects::GLASS.0 | Effects::ABSORPTION.0)) {
@@ -138,7 +147,8 @@ impl Material {
             MaterialModel::Pbr(_) => Effects::GGX,
             MaterialModel::Phong(_) => Effects::PHONG,
         };
-        let textures = [self.base_color_texture, self.metallic_roughness_texture, self.emissive_texture];
+        let textures =
+            [self.base_color_texture, self.metallic_roughness_texture, self.emissive_texture];
         if textures.iter().any(Option::is_some) || self.normal_texture.is_some() {
             e = e | Effects::TEXTURES;
         }
@@ -227,4 +237,3 @@ macro_rules! dispatch_kernel {
 
 #[cfg(test)]
 mod tests;
-

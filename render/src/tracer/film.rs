@@ -89,7 +89,13 @@ pub struct TileSums {
 
 impl TileSums {
     pub fn new(tile: Tile) -> TileSums {
-        TileSums { tile, pixels: vec![PixelSums::default(); tile.pixel_count()], dropped: 0, max_weight: 0.0, rays: 0 }
+        TileSums {
+            tile,
+            pixels: vec![PixelSums::default(); tile.pixel_count()],
+            dropped: 0,
+            max_weight: 0.0,
+            rays: 0,
+        }
     }
 
     /// Adds another range's sums for the same tile.

@@ -43,7 +43,8 @@ pub enum Estimator {
 }
 
 impl Estimator {
-    pub const ALL: [Estimator; 4] = [Estimator::Naive, Estimator::Bsdf, Estimator::Light, Estimator::Mis];
+    pub const ALL: [Estimator; 4] =
+        [Estimator::Naive, Estimator::Bsdf, Estimator::Light, Estimator::Mis];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -58,10 +59,9 @@ impl Estimator {
 impl FromStr for Estimator {
     type Err = String;
     fn from_str(s: &str) -> Result<Estimator, String> {
-        Estimator::ALL
-            .into_iter()
-            .find(|e| e.name() == s)
-            .ok_or_else(|| format!("unknown estimator {s:?} (expected one of naive, bsdf, light, mis)"))
+        Estimator::ALL.into_iter().find(|e| e.name() == s).ok_or_else(|| {
+            format!("unknown estimator {s:?} (expected one of naive, bsdf, light, mis)")
+        })
     }
 }
 
@@ -78,7 +78,12 @@ pub struct PathSettings {
 
 impl Default for PathSettings {
     fn default() -> PathSettings {
-        PathSettings { estimator: Estimator::Mis, roulette: Roulette::default(), max_depth: 1024, light_sampler: LightSampler::Auto }
+        PathSettings {
+            estimator: Estimator::Mis,
+            roulette: Roulette::default(),
+            max_depth: 1024,
+            light_sampler: LightSampler::Auto,
+        }
     }
 }
 
@@ -115,8 +120,13 @@ struct Bounce {
 
 impl<'a> Integrator<'a> {
     pub fn new(scene: &'a Scene, background: Vec3, settings: PathSettings) -> Integrator<'a> {
-        let lights = LightSet::with_tree(&scene.lights, scene.light_tree_for(settings.light_sampler), background, scene.bounds_radius)
-            .with_textures(&scene.textures);
+        let lights = LightSet::with_tree(
+            &scene.lights,
+            scene.light_tree_for(settings.light_sampler),
+            background,
+            scene.bounds_radius,
+        )
+        .with_textures(&scene.textures);
         Integrator {
             scene,
             lights,
@@ -170,7 +180,11 @@ impl<'a> Integrator<'a> {
                 }
                 let Some(bsdf) = s.bsdf.filter(|_| depth < self.settings.max_depth) else { break };
                 // Uniform directions never hit a delta lobe: glass is sampled by its BSDF.
-                let bs = if E::GLASS && bsdf.transmits() { bsdf.sample(s.wo, (u_choice - 0.5) * 2.0, u_dir) } else { bsdf.sample_uniform(s.wo, u_dir) };
+                let bs = if E::GLASS && bsdf.transmits() {
+                    bsdf.sample(s.wo, (u_choice - 0.5) * 2.0, u_dir)
+                } else {
+                    bsdf.sample_uniform(s.wo, u_dir)
+                };
                 let Some(mut bs) = bs else { break };
                 bs.pdf *= 0.5;
                 bs
@@ -180,7 +194,10 @@ impl<'a> Integrator<'a> {
                 let (d_lobe, u_dir) = (sampler.defer_1d(), sampler.get_2d());
                 let Some(bsdf) = s.bsdf.filter(|_| depth < self.settings.max_depth) else { break };
                 let delta = E::GLASS && bsdf.is_specular();
-                if matches!(est, Estimator::Light | Estimator::Mis) && !delta && !self.lights.is_empty() {
+                if matches!(est, Estimator::Light | Estimator::Mis)
+                    && !delta
+                    && !self.lights.is_empty()
+                {
                     l += beta * self.direct::<E>(est, &s, &bsdf, medium, u_light, &mut rays);
                 }
                 let u_lobe = if bsdf.chooses_lobes() { sampler.deferred(d_lobe) } else { 0.0 };
@@ -193,7 +210,12 @@ impl<'a> Integrator<'a> {
                 medium = s.medium_behind(medium);
                 eta_scale *= bs.eta * bs.eta;
             }
-            prev = Some(Bounce { p: s.p.p.into(), n: s.frame.n.into(), bsdf_pdf: bs.pdf, specular: bs.specular });
+            prev = Some(Bounce {
+                p: s.p.p.into(),
+                n: s.frame.n.into(),
+                bsdf_pdf: bs.pdf,
+                specular: bs.specular,
+            });
             if !beta.is_finite() {
                 // An overflowed throughput makes the sample meaningless (∞·0 later): report it
                 // as non-finite, so it is dropped and counted, and keep max_weight finite.
@@ -202,7 +224,11 @@ impl<'a> Integrator<'a> {
             max_weight = max_weight.max(beta.max_element());
             let d_roulette = sampler.defer_1d();
             rough_bounces += u32::from(!bs.specular);
-            if !self.settings.roulette.survives(rough_bounces, &mut beta, eta_scale, || sampler.deferred(d_roulette)) {
+            if !self
+                .settings
+                .roulette
+                .survives(rough_bounces, &mut beta, eta_scale, || sampler.deferred(d_roulette))
+            {
                 break;
             }
         }
@@ -243,7 +269,15 @@ impl<'a> Integrator<'a> {
     }
 
     /// Next-event estimation: one light sample, MIS-weighted for `Mis`.
-    fn direct<E: EffectSet>(&self, est: Estimator, s: &Surface, bsdf: &Bsdf, medium: Vec3, u: Vec2, rays: &mut u32) -> Vec3 {
+    fn direct<E: EffectSet>(
+        &self,
+        est: Estimator,
+        s: &Surface,
+        bsdf: &Bsdf,
+        medium: Vec3,
+        u: Vec2,
+        rays: &mut u32,
+    ) -> Vec3 {
         let Some(ls) = self.lights.sample_for::<E>(s.p.p, s.frame.n, u) else { return Vec3::ZERO };
         let wi = s.frame.to_local(ls.wi);
         let side = ls.wi.dot(s.ng);
@@ -306,4 +340,3 @@ fn transmittance(sigma: Vec3, dist: f32) -> Vec3 {
 
 #[cfg(test)]
 pub(crate) mod tests;
-

@@ -117,8 +117,17 @@ impl Material {
     /// without `E::GLASS`, never glass. `u_glass` chooses glass for partly transmissive
     /// materials; `entering`: the hit is on the front face.
     #[inline]
-    pub fn bsdf_for<E: EffectSet>(&self, uvs: &[Vec2; 2], textures: &[Texture], u_glass: f32, entering: bool) -> Bsdf {
-        if E::GLASS && let Some(g) = self.glass && u_glass < g.weight {
+    pub fn bsdf_for<E: EffectSet>(
+        &self,
+        uvs: &[Vec2; 2],
+        textures: &[Texture],
+        u_glass: f32,
+        entering: bool,
+    ) -> Bsdf {
+        if E::GLASS
+            && let Some(g) = self.glass
+            && u_glass < g.weight
+        {
             let base = match &self.model {
                 MaterialModel::Pbr(p) => p.base_color,
                 MaterialModel::Phong(p) => p.kd(),
@@ -147,7 +156,8 @@ impl Material {
 
     /// Emitted radiance at a point (towards the front), with the emissive texture.
     pub fn emission_at(&self, uvs: &[Vec2; 2], textures: &[Texture]) -> Vec3 {
-        self.emissive_texture.map_or(self.emission, |t| self.emission * t.sample(textures, uvs).truncate())
+        self.emissive_texture
+            .map_or(self.emission, |t| self.emission * t.sample(textures, uvs).truncate())
     }
 
     /// The opaque BSDF at a hit with texture coordinates `uvs` (both UV sets).

@@ -52,7 +52,13 @@ impl Mesh {
 
     /// Appends the next triangle's attributes (its index is `material.len()`; its positions are
     /// the caller's to push). `uvs` and `tangents`: None where the triangle has none.
-    pub fn push_attributes(&mut self, normals: [Vec3; 3], uvs: Option<[[Vec2; 3]; 2]>, tangents: Option<[Vec4; 3]>, material: u32) {
+    pub fn push_attributes(
+        &mut self,
+        normals: [Vec3; 3],
+        uvs: Option<[[Vec2; 3]; 2]>,
+        tangents: Option<[Vec4; 3]>,
+        material: u32,
+    ) {
         let i = self.material.len();
         if self.normals.is_empty() && is_flat(&normals) {
             self.flat_normals.push(normals[0]);
@@ -60,7 +66,8 @@ impl Mesh {
             if self.normals.is_empty() {
                 // As many as the mesh has room for (see `reserve`), and the flat ones freed.
                 self.normals.reserve_exact(self.material.capacity());
-                self.normals.extend(std::mem::take(&mut self.flat_normals).into_iter().map(|n| [n; 3]));
+                self.normals
+                    .extend(std::mem::take(&mut self.flat_normals).into_iter().map(|n| [n; 3]));
             }
             self.normals.push(normals);
         }
@@ -79,7 +86,12 @@ impl Mesh {
     /// normals, straight into the mesh's own vectors while it is in its compact forms (no copy
     /// of a frame's million normals), else into a scratch vector stored as
     /// [`Mesh::push_attributes`] would. Returns what `pose` returns.
-    pub fn extend_flat<R>(&mut self, count: usize, material: u32, pose: impl FnOnce(&mut Vec<[Vec3; 3]>, &mut Vec<Vec3>) -> R) -> R {
+    pub fn extend_flat<R>(
+        &mut self,
+        count: usize,
+        material: u32,
+        pose: impl FnOnce(&mut Vec<[Vec3; 3]>, &mut Vec<Vec3>) -> R,
+    ) -> R {
         if self.normals.is_empty() && self.uvs.is_empty() && self.tangents.is_empty() {
             let posed = pose(&mut self.positions, &mut self.flat_normals);
             self.material.resize(self.material.len() + count, material);
@@ -135,7 +147,12 @@ impl Mesh {
         fn held<T>(v: &Vec<T>) -> usize {
             v.capacity() * size_of::<T>()
         }
-        held(&self.positions) + held(&self.normals) + held(&self.flat_normals) + held(&self.uvs) + held(&self.tangents) + held(&self.material)
+        held(&self.positions)
+            + held(&self.normals)
+            + held(&self.flat_normals)
+            + held(&self.uvs)
+            + held(&self.tangents)
+            + held(&self.material)
     }
 }
 
@@ -170,7 +187,14 @@ mod tests {
             |_| {},
             |m| m.push_attributes([Vec3::Z; 3], None, None, 0),
             |m| m.push_attributes([Vec3::X, Vec3::Y, Vec3::Z], None, None, 0),
-            |m| m.push_attributes([Vec3::Z; 3], Some([[Vec2::ONE; 3], [Vec2::ZERO; 3]]), Some([Vec4::ONE; 3]), 0),
+            |m| {
+                m.push_attributes(
+                    [Vec3::Z; 3],
+                    Some([[Vec2::ONE; 3], [Vec2::ZERO; 3]]),
+                    Some([Vec4::ONE; 3]),
+                    0,
+                )
+            },
         ];
         for (k, start) in starts.iter().enumerate() {
             let (mut at_once, mut one_by_one) = (Mesh::default(), Mesh::default());
@@ -178,9 +202,19 @@ mod tests {
             start(&mut one_by_one);
             at_once.extend_flat(faces.len(), 7, |_, normals| normals.extend_from_slice(&faces));
             faces.iter().for_each(|&f| one_by_one.push_attributes([f; 3], None, None, 7));
-            let read = |m: &Mesh| (0..m.material.len()).map(|i| (m.normals_of(i), m.uvs_of(i), m.tangents.get(i).copied(), m.material[i])).collect::<Vec<_>>();
+            let read = |m: &Mesh| {
+                (0..m.material.len())
+                    .map(|i| {
+                        (m.normals_of(i), m.uvs_of(i), m.tangents.get(i).copied(), m.material[i])
+                    })
+                    .collect::<Vec<_>>()
+            };
             assert_eq!(read(&at_once), read(&one_by_one), "start {k}");
-            assert_eq!((at_once.normals.len(), at_once.flat_normals.len(), at_once.uvs.len()), (one_by_one.normals.len(), one_by_one.flat_normals.len(), one_by_one.uvs.len()), "start {k}: stored forms");
+            assert_eq!(
+                (at_once.normals.len(), at_once.flat_normals.len(), at_once.uvs.len()),
+                (one_by_one.normals.len(), one_by_one.flat_normals.len(), one_by_one.uvs.len()),
+                "start {k}: stored forms"
+            );
         }
     }
 }

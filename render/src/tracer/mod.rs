@@ -10,6 +10,7 @@ pub mod film;
 pub mod integrator;
 pub mod light;
 pub mod material;
+pub mod mesh;
 pub mod normal_map;
 pub mod ray;
 #[cfg(feature = "bench")]
@@ -19,7 +20,6 @@ pub mod roulette;
 pub mod rows;
 pub mod sampler;
 pub mod sampling;
-pub mod mesh;
 pub mod scene;
 mod surface;
 pub mod texture;
@@ -29,10 +29,10 @@ mod chi2;
 #[cfg(test)]
 mod numerics;
 
+pub use effects::{Effects, KernelBits};
 pub use film::{PixelSums, Tile, TileSums};
 pub use integrator::{Estimator, PathSettings, Roulette};
-pub use effects::{Effects, KernelBits};
+pub use light::LightSampler;
 pub use render::{RenderError, RenderOptions, RenderSettings, render_tile};
 pub use rows::RowQueue;
 pub use scene::Scene;
-pub use light::LightSampler;

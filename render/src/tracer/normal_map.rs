@@ -114,7 +114,10 @@ mod tests {
         assert_eq!(tangent_from_uvs(&QUAD, &same, Vec3::Z), None);
         assert_eq!(tangent_from_uvs(&QUAD, &collinear, Vec3::Z), None);
         assert!(tangent_from_uvs(&QUAD, &tiny_but_fine, Vec3::Z).is_some());
-        assert_eq!(tangent_from_attribute(&[Vec4::new(0.0, 0.0, 1.0, 1.0); 3], [1.0, 0.0, 0.0], Vec3::Z), None);
+        assert_eq!(
+            tangent_from_attribute(&[Vec4::new(0.0, 0.0, 1.0, 1.0); 3], [1.0, 0.0, 0.0], Vec3::Z),
+            None
+        );
     }
 
     #[test]
@@ -126,7 +129,11 @@ mod tests {
         // Green tilts along the bitangent, and `scale` scales the tilt (then renormalises).
         let n = perturb(Vec3::Z, (Vec3::X, -1.0), Vec3::new(0.5, 1.0, 1.0), 0.5);
         assert!((n - Vec3::new(0.0, -0.5, 1.0).normalize()).length() < 1e-6, "{n}");
-        assert_eq!(perturb(Vec3::Z, (Vec3::X, 1.0), Vec3::splat(0.5), 1.0), Vec3::Z, "no direction: keep n");
+        assert_eq!(
+            perturb(Vec3::Z, (Vec3::X, 1.0), Vec3::splat(0.5), 1.0),
+            Vec3::Z,
+            "no direction: keep n"
+        );
     }
 
     #[test]

@@ -86,7 +86,8 @@ fn step_toward3(v: Vec3, dir: Vec3) -> Vec3 {
     // SAFETY: SSE2 is part of every x86_64 target; no memory is touched.
     let stepped = unsafe {
         let zero = _mm_setzero_ps();
-        let (up, down) = (_mm_castps_si128(_mm_cmpgt_ps(dir, zero)), _mm_castps_si128(_mm_cmplt_ps(dir, zero)));
+        let (up, down) =
+            (_mm_castps_si128(_mm_cmpgt_ps(dir, zero)), _mm_castps_si128(_mm_cmplt_ps(dir, zero)));
         let positive = _mm_castps_si128(_mm_cmpgt_ps(v, zero));
         // Away from zero (up from a positive value, down from the rest) adds one to the bits,
         // towards zero subtracts one: masks are −1, so sub − add is the step.
@@ -95,16 +96,22 @@ fn step_toward3(v: Vec3, dir: Vec3) -> Vec3 {
         let bits = _mm_castps_si128(v);
         let moved = _mm_add_epi32(bits, _mm_sub_epi32(sub, add));
         // Zeros of either sign step to the smallest subnormal of the direction's sign.
-        let is_zero = _mm_and_si128(_mm_castps_si128(_mm_cmpeq_ps(v, zero)), _mm_or_si128(up, down));
-        let from_zero = _mm_or_si128(_mm_set1_epi32(1), _mm_and_si128(down, _mm_set1_epi32(i32::MIN)));
-        let moved = _mm_or_si128(_mm_andnot_si128(is_zero, moved), _mm_and_si128(is_zero, from_zero));
+        let is_zero =
+            _mm_and_si128(_mm_castps_si128(_mm_cmpeq_ps(v, zero)), _mm_or_si128(up, down));
+        let from_zero =
+            _mm_or_si128(_mm_set1_epi32(1), _mm_and_si128(down, _mm_set1_epi32(i32::MIN)));
+        let moved =
+            _mm_or_si128(_mm_andnot_si128(is_zero, moved), _mm_and_si128(is_zero, from_zero));
         // Infinities stay where the step would leave the floats.
         let inf = _mm_set1_ps(f32::INFINITY);
         let outward = _mm_or_si128(
             _mm_and_si128(up, _mm_castps_si128(_mm_cmpeq_ps(v, inf))),
             _mm_and_si128(down, _mm_castps_si128(_mm_cmpeq_ps(v, _mm_sub_ps(zero, inf)))),
         );
-        _mm_castsi128_ps(_mm_or_si128(_mm_andnot_si128(outward, moved), _mm_and_si128(outward, bits)))
+        _mm_castsi128_ps(_mm_or_si128(
+            _mm_andnot_si128(outward, moved),
+            _mm_and_si128(outward, bits),
+        ))
     };
     Vec3::from(Vec3A::from(stepped))
 }
@@ -119,9 +126,31 @@ fn step_toward3(v: Vec3, dir: Vec3) -> Vec3 {
 #[cfg_attr(target_arch = "x86_64", allow(dead_code))] // there the tests' reference for step_toward3
 fn step_toward(v: f32, dir: f32) -> f32 {
     let b = v.to_bits();
-    let up = if v == 0.0 { 1 } else if v == f32::INFINITY { b } else if v >= 0.0 { b.wrapping_add(1) } else { b.wrapping_sub(1) };
-    let down = if v == 0.0 { 0x8000_0001 } else if v == f32::NEG_INFINITY { b } else if v > 0.0 { b.wrapping_sub(1) } else { b.wrapping_add(1) };
-    f32::from_bits(if dir > 0.0 { up } else if dir < 0.0 { down } else { b })
+    let up = if v == 0.0 {
+        1
+    } else if v == f32::INFINITY {
+        b
+    } else if v >= 0.0 {
+        b.wrapping_add(1)
+    } else {
+        b.wrapping_sub(1)
+    };
+    let down = if v == 0.0 {
+        0x8000_0001
+    } else if v == f32::NEG_INFINITY {
+        b
+    } else if v > 0.0 {
+        b.wrapping_sub(1)
+    } else {
+        b.wrapping_add(1)
+    };
+    f32::from_bits(if dir > 0.0 {
+        up
+    } else if dir < 0.0 {
+        down
+    } else {
+        b
+    })
 }
 
 #[cfg(test)]
@@ -176,14 +205,32 @@ mod tests {
 
     #[test]
     fn the_three_axes_step_as_each_alone() {
-        let values = [0.0, -0.0, 1e-45, -1e-45, 1.5, -2.25, f32::MAX, f32::MIN, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, -f32::NAN];
+        let values = [
+            0.0,
+            -0.0,
+            1e-45,
+            -1e-45,
+            1.5,
+            -2.25,
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+        ];
         let dirs = [1.0, -1.0, 0.0, -0.0, 1e-30, -7.0, f32::NAN];
         for (i, &x) in values.iter().enumerate() {
             for (j, &d) in dirs.iter().enumerate() {
                 let (y, e) = (values[(i + 5) % values.len()], dirs[(j + 3) % dirs.len()]);
                 let got = step_toward3(Vec3::new(x, y, -x), Vec3::new(d, e, d));
                 let want = [step_toward(x, d), step_toward(y, e), step_toward(-x, d)];
-                assert_eq!(got.to_array().map(f32::to_bits), want.map(f32::to_bits), "v ({x}, {y}, {}) dir ({d}, {e}, {d})", -x);
+                assert_eq!(
+                    got.to_array().map(f32::to_bits),
+                    want.map(f32::to_bits),
+                    "v ({x}, {y}, {}) dir ({d}, {e}, {d})",
+                    -x
+                );
             }
         }
     }

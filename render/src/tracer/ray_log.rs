@@ -50,20 +50,38 @@ impl RayLog {
 mod tests {
     use super::*;
     use crate::scene::load_path;
-    use crate::tracer::{RenderOptions, render_tile};
     use crate::tracer::sampler::SamplerKind;
     use crate::tracer::{Estimator, Tile};
+    use crate::tracer::{RenderOptions, render_tile};
     use std::path::Path;
 
     #[test]
     fn a_logged_render_gives_the_same_bits_and_logs_every_ray_it_counts() {
-        let scene = load_path(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box.gltf")).expect("bundled scene");
-        let mut settings = crate::tracer::integrator::tests::settings(Estimator::Mis, Default::default(), 32, glam::Vec3::ZERO);
+        let scene =
+            load_path(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box.gltf"))
+                .expect("bundled scene");
+        let mut settings = crate::tracer::integrator::tests::settings(
+            Estimator::Mis,
+            Default::default(),
+            32,
+            glam::Vec3::ZERO,
+        );
         settings.sampler = SamplerKind::Sobol;
         let tile = Tile { x0: 4, y0: 8, w: 16, h: 12 };
         let log = RayLog::new();
-        let logged = render_tile(&scene, &settings, tile, 0..4, &RenderOptions { ray_log: Some(&log), ..RenderOptions::default() }).unwrap();
-        assert_eq!(logged, render_tile(&scene, &settings, tile, 0..4, &RenderOptions::default()).unwrap(), "logging changes nothing");
+        let logged = render_tile(
+            &scene,
+            &settings,
+            tile,
+            0..4,
+            &RenderOptions { ray_log: Some(&log), ..RenderOptions::default() },
+        )
+        .unwrap();
+        assert_eq!(
+            logged,
+            render_tile(&scene, &settings, tile, 0..4, &RenderOptions::default()).unwrap(),
+            "logging changes nothing"
+        );
         let rays = log.take();
         assert_eq!(rays.len() as u64, logged.rays);
         let closest = rays.iter().filter(|r| r.query == RayQuery::Closest).count();

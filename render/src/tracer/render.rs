@@ -67,7 +67,13 @@ pub enum RenderError {
 }
 
 /// Renders sample indices `samples` of every pixel in `tile`.
-pub fn render_tile(scene: &Scene, settings: &RenderSettings, tile: Tile, samples: Range<u32>, options: &RenderOptions) -> Result<TileSums, RenderError> {
+pub fn render_tile(
+    scene: &Scene,
+    settings: &RenderSettings,
+    tile: Tile,
+    samples: Range<u32>,
+    options: &RenderOptions,
+) -> Result<TileSums, RenderError> {
     let plan = UnitPlan::new(scene, settings, tile, options.kernel)?;
     let integrator = Integrator::new(scene, settings.background, plan.path);
     #[cfg(feature = "bench")]
@@ -77,7 +83,11 @@ pub fn render_tile(scene: &Scene, settings: &RenderSettings, tile: Tile, samples
     };
     let never = AtomicBool::new(false);
     let cancel = options.cancel.unwrap_or(&never);
-    dispatch_kernel!(plan.kernel, render_rows(&integrator, &plan.camera, settings, tile, samples, cancel)).ok_or(RenderError::Canceled)
+    dispatch_kernel!(
+        plan.kernel,
+        render_rows(&integrator, &plan.camera, settings, tile, samples, cancel)
+    )
+    .ok_or(RenderError::Canceled)
 }
 
 /// What a unit's rows share, worked out once: the camera bound to the image, the path
@@ -91,16 +101,28 @@ pub(crate) struct UnitPlan {
 
 impl UnitPlan {
     /// Checks the tile against the image and resolves the camera (None: the scene's first).
-    pub(crate) fn new(scene: &Scene, settings: &RenderSettings, tile: Tile, kernel: Option<KernelBits>) -> Result<UnitPlan, RenderError> {
-        if tile.x0.checked_add(tile.w).is_none_or(|x| x > settings.width) || tile.y0.checked_add(tile.h).is_none_or(|y| y > settings.height) {
-            return Err(RenderError::TileOutsideImage { tile, width: settings.width, height: settings.height });
+    pub(crate) fn new(
+        scene: &Scene,
+        settings: &RenderSettings,
+        tile: Tile,
+        kernel: Option<KernelBits>,
+    ) -> Result<UnitPlan, RenderError> {
+        if tile.x0.checked_add(tile.w).is_none_or(|x| x > settings.width)
+            || tile.y0.checked_add(tile.h).is_none_or(|y| y > settings.height)
+        {
+            return Err(RenderError::TileOutsideImage {
+                tile,
+                width: settings.width,
+                height: settings.height,
+            });
         }
         let camera = scene.camera(settings.camera.as_deref())?;
         let mut path = settings.path;
         if kernel.is_none() {
             path.max_depth = path.max_depth.min(scene.needed_depth(settings.background));
         }
-        let kernel = kernel.unwrap_or_else(|| scene.effects_for(camera, settings.background).kernel());
+        let kernel =
+            kernel.unwrap_or_else(|| scene.effects_for(camera, settings.background).kernel());
         Ok(UnitPlan { camera: camera.raster(settings.width, settings.height), path, kernel })
     }
 }
@@ -125,7 +147,15 @@ fn render_rows<E: EffectSet>(
             if cancel.load(Ordering::Relaxed) {
                 return RowStats::default();
             }
-            render_row::<E>(integrator, camera, settings, tile.x0, tile.y0 + row as u32, samples.clone(), pixels)
+            render_row::<E>(
+                integrator,
+                camera,
+                settings,
+                tile.x0,
+                tile.y0 + row as u32,
+                samples.clone(),
+                pixels,
+            )
         })
         .collect();
     if cancel.load(Ordering::Relaxed) {
@@ -172,7 +202,11 @@ pub(crate) fn render_row<E: EffectSet>(
         for index in samples.clone() {
             let mut sampler = Sampler::for_pixel(&seeds, index);
             let jitter = sampler.get_2d();
-            let ray = if E::DOF { camera.ray_lens(px, py, jitter, sampler.get_2d()) } else { camera.ray(px, py, jitter) };
+            let ray = if E::DOF {
+                camera.ray_lens(px, py, jitter, sampler.get_2d())
+            } else {
+                camera.ray(px, py, jitter)
+            };
             let s = integrator.li_for::<E>(ray, &mut sampler);
             stats.rays += u64::from(s.rays);
             if s.radiance.is_finite() {

@@ -17,14 +17,19 @@ use glam::Vec3;
 pub enum Roulette {
     Off,
     /// The seed's form: once max(β·η²) < `threshold`, stop with probability `p`, else β /= 1 − p.
-    Threshold { threshold: f32, p: f32 },
+    Threshold {
+        threshold: f32,
+        p: f32,
+    },
     /// From the `min_depth`-th non-specular bounce on, survive with probability max(β·η²)
     /// (capped at 1), so a surviving path's throughput outside glass never exceeds 1 in any
     /// channel. Specular bounces (smooth glass) do not count: they neither spread nor lose
     /// light the way a rough bounce does, and counting them ended the caustic paths that only
     /// BSDF sampling finds (glass scenes: 2.3–3.2× lower relMSE at equal spp and time;
     /// docs/performance.md, session 20). `PathSettings::max_depth` still bounds such a chain.
-    Throughput { min_depth: u32 },
+    Throughput {
+        min_depth: u32,
+    },
 }
 
 /// The non-specular bounce from which [`Roulette::default`] may end paths. Five, as in
@@ -44,7 +49,13 @@ impl Roulette {
     /// Decisions look at β·`eta_scale` (pbrt-v4's `etaScale`, Mitsuba's η²): inside glass β is
     /// 1/η² of the light it carries out again, and judging β alone ended ~56 % of paths in a
     /// pane of glass that lost them nothing. `u` is asked for only when the path may stop.
-    pub fn survives(self, rough_bounces: u32, beta: &mut Vec3, eta_scale: f32, u: impl FnOnce() -> f32) -> bool {
+    pub fn survives(
+        self,
+        rough_bounces: u32,
+        beta: &mut Vec3,
+        eta_scale: f32,
+        u: impl FnOnce() -> f32,
+    ) -> bool {
         let carried = beta.max_element() * eta_scale;
         let q = match self {
             Roulette::Off => return true,
@@ -92,6 +103,11 @@ mod tests {
         assert!(!rr.survives(2, &mut Vec3::splat(0.3), 1.0, || 0.5));
         // At or above 1 nothing is drawn; off never draws.
         assert!(rr.survives(9, &mut Vec3::splat(0.5), 2.25, || unreachable!()));
-        assert!(Roulette::from_depth(0).survives(9, &mut Vec3::splat(1e-9), 1.0, || unreachable!()));
+        assert!(Roulette::from_depth(0).survives(
+            9,
+            &mut Vec3::splat(1e-9),
+            1.0,
+            || unreachable!()
+        ));
     }
 }

@@ -39,7 +39,12 @@ pub struct RowQueue {
 impl RowQueue {
     /// A unit ready to be worked on; errors as [`render_tile`](super::render_tile) does for a
     /// tile outside the image or an unknown camera.
-    pub fn new(scene: Arc<Scene>, settings: RenderSettings, tile: Tile, samples: Range<u32>) -> Result<RowQueue, RenderError> {
+    pub fn new(
+        scene: Arc<Scene>,
+        settings: RenderSettings,
+        tile: Tile,
+        samples: Range<u32>,
+    ) -> Result<RowQueue, RenderError> {
         let plan = UnitPlan::new(&scene, &settings, tile, None)?;
         Ok(RowQueue {
             scene,
@@ -99,7 +104,18 @@ impl RowQueue {
 
     fn render_row(&self, integrator: &Integrator, row: u32, pixels: &mut [PixelSums]) -> RowStats {
         let (camera, settings, py) = (&self.plan.camera, &self.settings, self.tile.y0 + row);
-        dispatch_kernel!(self.plan.kernel, render_row(integrator, camera, settings, self.tile.x0, py, self.samples.clone(), pixels))
+        dispatch_kernel!(
+            self.plan.kernel,
+            render_row(
+                integrator,
+                camera,
+                settings,
+                self.tile.x0,
+                py,
+                self.samples.clone(),
+                pixels
+            )
+        )
     }
 
     fn store_row(&self, row: u32, pixels: &[PixelSums], stats: RowStats) {

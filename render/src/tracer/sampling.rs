@@ -90,11 +90,7 @@ pub fn uniform_hemisphere_rejection(next: &mut impl FnMut() -> f32) -> Vec3 {
 
 /// Barycentrics (b1, b2) uniform over a triangle, by the seed's fold of the unit square.
 pub fn uniform_triangle(u: Vec2) -> (f32, f32) {
-    if u.x + u.y > 1.0 {
-        (1.0 - u.x, 1.0 - u.y)
-    } else {
-        (u.x, u.y)
-    }
+    if u.x + u.y > 1.0 { (1.0 - u.x, 1.0 - u.y) } else { (u.x, u.y) }
 }
 
 /// Phong lobe around +z: cos α = u.x^(1/(n+1)), φ = 2π u.y; needs n > −1.
@@ -182,12 +178,7 @@ mod tests {
     #[test]
     fn frame_is_orthonormal_right_handed_and_inverts() {
         let mut rng = Rng::new(1);
-        let tricky = [
-            Vec3::Z,
-            -Vec3::Z,
-            -Vec3::Y,
-            Vec3::new(0.0, -1.0, -1e-8).normalize(),
-        ];
+        let tricky = [Vec3::Z, -Vec3::Z, -Vec3::Y, Vec3::new(0.0, -1.0, -1e-8).normalize()];
         let sign = |x: f32| (x - 0.5).signum();
         let random = (0..1000).map(|_| uniform_hemisphere(rng.vec2()) * sign(rng.f32()));
         let v = Vec3::new(0.3, -0.5, 0.8);
@@ -272,17 +263,11 @@ mod tests {
             let ln_cos = (u.x as f64).ln() / (n as f64 + 1.0);
             let sin_ref = (-(2.0 * ln_cos).exp_m1()).sqrt();
             let sin = (w.x as f64).hypot(w.y as f64);
-            assert!(
-                (sin - sin_ref).abs() <= 1e-3 * sin_ref,
-                "{sin} vs {sin_ref}"
-            );
+            assert!((sin - sin_ref).abs() <= 1e-3 * sin_ref, "{sin} vs {sin_ref}");
             let lobe = (n as f64 * (w.z as f64).ln()).exp();
             let pdf_ref = (n as f64 + 1.0) / std::f64::consts::TAU * lobe;
             let pdf = phong_lobe_pdf(w.z, n) as f64;
-            assert!(
-                (pdf - pdf_ref).abs() <= 1e-3 * pdf_ref,
-                "{pdf} vs {pdf_ref}"
-            );
+            assert!((pdf - pdf_ref).abs() <= 1e-3 * pdf_ref, "{pdf} vs {pdf_ref}");
         }
     }
 
@@ -327,9 +312,7 @@ mod tests {
         // Lower halves with i + j ≤ m − 1 and upper halves with i + j ≤ m − 2 are inside.
         let inside = |c: usize| (c / 2) / m + (c / 2) % m + c % 2 < m;
         let each = N as f64 / (m * m) as f64;
-        let exp: Vec<f64> = (0..obs.len())
-            .map(|c| each * inside(c) as u8 as f64)
-            .collect();
+        let exp: Vec<f64> = (0..obs.len()).map(|c| each * inside(c) as u8 as f64).collect();
         chi2::assert_counts("uniform triangle", &obs, &exp, N);
     }
 

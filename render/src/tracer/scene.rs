@@ -7,10 +7,10 @@ use crate::tracer::camera::{Camera, CameraError};
 use crate::tracer::effects::Effects;
 use crate::tracer::light::{EmissiveTexture, Light, LightSampler, LightTree};
 use crate::tracer::material::Material;
+pub use crate::tracer::mesh::Mesh;
 use crate::tracer::texture::Texture;
 use glam::Vec3;
 use rayon::prelude::*;
-pub use crate::tracer::mesh::Mesh;
 use std::sync::Arc;
 
 pub struct Scene {
@@ -97,7 +97,8 @@ impl Scene {
         let (mut lights, tri_light) = area_lights(&mesh, &materials, &textures);
         let light_tree = LightTree::over(&lights);
         let scatters = |t: usize| materials[mesh.material[t] as usize].scatters();
-        let suits_tree = light_tree.as_ref().is_some_and(|t| t.suits(&lights, &mesh.positions, scatters));
+        let suits_tree =
+            light_tree.as_ref().is_some_and(|t| t.suits(&lights, &mesh.positions, scatters));
         lights.extend(punctual);
         let (bounds_centre, bounds_radius) = bounding_sphere(solid_box);
         let mut used = vec![false; materials.len()];
@@ -107,12 +108,27 @@ impl Scene {
         if suits_tree {
             effects = effects | Effects::LIGHT_TREE;
         }
-        Scene { mesh, materials, textures, cameras, lights, light_tree, tri_light, face_normals, accel, bounds_centre, bounds_radius, effects }
+        Scene {
+            mesh,
+            materials,
+            textures,
+            cameras,
+            lights,
+            light_tree,
+            tri_light,
+            face_normals,
+            accel,
+            bounds_centre,
+            bounds_radius,
+            effects,
+        }
     }
 
     /// The tree a job's light samples choose through, if its `sampler` uses one here.
     pub fn light_tree_for(&self, sampler: LightSampler) -> Option<&LightTree> {
-        self.light_tree.as_ref().filter(|_| sampler.uses_tree(self.effects.contains(Effects::LIGHT_TREE)))
+        self.light_tree
+            .as_ref()
+            .filter(|_| sampler.uses_tree(self.effects.contains(Effects::LIGHT_TREE)))
     }
 
     /// The effects of a render through `camera` with the job's `background`.
@@ -138,10 +154,12 @@ impl Scene {
 
     pub fn camera(&self, name: Option<&str>) -> Result<&Camera, CameraError> {
         match name {
-            Some(n) => self.cameras.iter().find(|c| c.name == n).ok_or_else(|| CameraError::Unknown {
-                name: n.to_string(),
-                names: self.cameras.iter().map(|c| c.name.clone()).collect(),
-            }),
+            Some(n) => {
+                self.cameras.iter().find(|c| c.name == n).ok_or_else(|| CameraError::Unknown {
+                    name: n.to_string(),
+                    names: self.cameras.iter().map(|c| c.name.clone()).collect(),
+                })
+            }
             None => self.cameras.first().ok_or(CameraError::Missing),
         }
     }
@@ -150,10 +168,18 @@ impl Scene {
 /// One light per emissive triangle of non-zero area, in triangle order, and each triangle's
 /// index among them (`NO_LIGHT` if none). The emissive triangles are found over the worker's
 /// threads: an animation's frame makes its lights anew from a million triangles, few of them lit.
-pub(crate) fn area_lights(mesh: &Mesh, materials: &[Material], textures: &[Texture]) -> (Vec<Light>, Vec<u32>) {
+pub(crate) fn area_lights(
+    mesh: &Mesh,
+    materials: &[Material],
+    textures: &[Texture],
+) -> (Vec<Light>, Vec<u32>) {
     let emissive: Vec<bool> = materials.iter().map(Material::is_emissive).collect();
     let lit: Vec<u32> = match emissive.contains(&true) {
-        true => (0..mesh.len() as u32).into_par_iter().with_min_len(PARALLEL_GRAIN).filter(|&i| emissive[mesh.material[i as usize] as usize]).collect(),
+        true => (0..mesh.len() as u32)
+            .into_par_iter()
+            .with_min_len(PARALLEL_GRAIN)
+            .filter(|&i| emissive[mesh.material[i as usize] as usize])
+            .collect(),
         false => Vec::new(),
     };
     let mut lights = Vec::new();
@@ -161,9 +187,12 @@ pub(crate) fn area_lights(mesh: &Mesh, materials: &[Material], textures: &[Textu
     let mut means = vec![None; textures.len()];
     for i in lit.into_iter().map(|i| i as usize) {
         let m = &materials[mesh.material[i] as usize];
-        if let Some(mut l) = Light::triangle(i as u32, &mesh.positions[i], m.emission, m.double_sided) {
+        if let Some(mut l) =
+            Light::triangle(i as u32, &mesh.positions[i], m.emission, m.double_sided)
+        {
             if let Some(t) = m.emissive_texture {
-                let mean = *means[t.texture as usize].get_or_insert_with(|| textures[t.texture as usize].mean_rgb());
+                let mean = *means[t.texture as usize]
+                    .get_or_insert_with(|| textures[t.texture as usize].mean_rgb());
                 l = l.with_texture(EmissiveTexture { texture: t, uvs: mesh.uvs_of(i), mean });
             }
             tri_light[i] = lights.len() as u32;

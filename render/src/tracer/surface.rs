@@ -58,7 +58,9 @@ impl Integrator<'_> {
             log.push(ray, f32::INFINITY, RayQuery::Closest);
         }
         let hit = if E::ALPHA {
-            self.scene.accel.intersect_where(ray, f32::INFINITY, |prim, b1, b2| self.opaque(prim, b1, b2))
+            self.scene
+                .accel
+                .intersect_where(ray, f32::INFINITY, |prim, b1, b2| self.opaque(prim, b1, b2))
         } else {
             self.scene.accel.intersect(ray, f32::INFINITY)
         }?;
@@ -80,7 +82,9 @@ impl Integrator<'_> {
         if ns.dot(ng) < 0.0 {
             ns = -ns;
         }
-        if E::SURFACES && let Some(nt) = &material.normal_texture {
+        if E::SURFACES
+            && let Some(nt) = &material.normal_texture
+        {
             ns = self.normal_mapped(nt, i, b, &uvs, ns);
         }
         let front = ng.dot(wo_world) > 0.0;
@@ -100,7 +104,18 @@ impl Integrator<'_> {
         let wo = frame.to_local(wo_world);
         let sigma_a = glass.filter(|g| !g.thin).map_or(Vec3::ZERO, |g| g.sigma_a);
         let dist = hit.t * ray.dir.length();
-        Some(Surface { p, ng, frame, wo, bsdf, le, light: self.scene.tri_light[i], dist, front, sigma_a })
+        Some(Surface {
+            p,
+            ng,
+            frame,
+            wo,
+            bsdf,
+            le,
+            light: self.scene.tri_light[i],
+            dist,
+            front,
+            sigma_a,
+        })
     }
 
     /// Both UV sets at barycentrics `b` of triangle `i`.
@@ -109,22 +124,36 @@ impl Integrator<'_> {
     }
 
     /// The shading normal `ns` (front side) perturbed by the material's normal map.
-    fn normal_mapped(&self, nt: &NormalTexture, i: usize, b: [f32; 3], uvs: &[Vec2; 2], ns: Vec3) -> Vec3 {
+    fn normal_mapped(
+        &self,
+        nt: &NormalTexture,
+        i: usize,
+        b: [f32; 3],
+        uvs: &[Vec2; 2],
+        ns: Vec3,
+    ) -> Vec3 {
         let mesh = &self.scene.mesh;
         let tangent = match mesh.tangents.get(i) {
             Some(t) if t[0].w != 0.0 => normal_map::tangent_from_attribute(t, b, ns),
             _ => {
-                let uv = mesh.uvs_of(i)[nt.texture.tex_coord.min(1) as usize].map(|uv| nt.texture.transform.apply(uv));
+                let uv = mesh.uvs_of(i)[nt.texture.tex_coord.min(1) as usize]
+                    .map(|uv| nt.texture.transform.apply(uv));
                 normal_map::tangent_from_uvs(&mesh.positions[i], &uv, ns)
             }
         };
         let Some(tangent) = tangent else { return ns };
-        normal_map::perturb(ns, tangent, nt.texture.sample(&self.scene.textures, uvs).truncate(), nt.scale)
+        normal_map::perturb(
+            ns,
+            tangent,
+            nt.texture.sample(&self.scene.textures, uvs).truncate(),
+            nt.scale,
+        )
     }
 
     /// Whether the alpha test keeps the hit at (b1, b2) on triangle `prim`.
     pub(crate) fn opaque(&self, prim: u32, b1: f32, b2: f32) -> bool {
-        let material: &Material = &self.scene.materials[self.scene.mesh.material[prim as usize] as usize];
+        let material: &Material =
+            &self.scene.materials[self.scene.mesh.material[prim as usize] as usize];
         let Some(cutoff) = material.alpha_cutoff else { return true };
         let uvs = self.uvs(prim as usize, [1.0 - b1 - b2, b1, b2]);
         material.alpha_at(&uvs, &self.scene.textures) >= cutoff

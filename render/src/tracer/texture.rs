@@ -172,17 +172,34 @@ mod tests {
     fn texture_transforms_follow_khr_texture_transform() {
         // The extension's example: offset (0, 1), rotation π/2, scale ½ uses the lower-left
         // quadrant of the image, rotated.
-        let quadrant = UvTransform::from_gltf(Vec2::new(0.0, 1.0), std::f32::consts::FRAC_PI_2, Vec2::splat(0.5));
-        for (uv, want) in [((0.0, 0.0), (0.0, 1.0)), ((1.0, 0.0), (0.0, 0.5)), ((1.0, 1.0), (0.5, 0.5)), ((0.0, 1.0), (0.5, 1.0))] {
+        let quadrant = UvTransform::from_gltf(
+            Vec2::new(0.0, 1.0),
+            std::f32::consts::FRAC_PI_2,
+            Vec2::splat(0.5),
+        );
+        for (uv, want) in [
+            ((0.0, 0.0), (0.0, 1.0)),
+            ((1.0, 0.0), (0.0, 0.5)),
+            ((1.0, 1.0), (0.5, 0.5)),
+            ((0.0, 1.0), (0.5, 1.0)),
+        ] {
             let got = quadrant.apply(Vec2::from(uv));
             assert!((got - Vec2::from(want)).length() < 1e-6, "{uv:?} → {got}, want {want:?}");
         }
-        let t = UvTransform::from_gltf(Vec2::new(0.5, 0.25), std::f32::consts::FRAC_PI_2, Vec2::new(2.0, 3.0));
+        let t = UvTransform::from_gltf(
+            Vec2::new(0.5, 0.25),
+            std::f32::consts::FRAC_PI_2,
+            Vec2::new(2.0, 3.0),
+        );
         let uv = t.apply(Vec2::new(1.0, 0.0));
         assert!((uv - Vec2::new(0.5, 0.25 - 2.0)).length() < 1e-6, "{uv}");
         let uv = t.apply(Vec2::new(0.0, 1.0));
         assert!((uv - Vec2::new(0.5 + 3.0, 0.25)).length() < 1e-6, "{uv}");
-        let r = TextureRef { texture: 0, tex_coord: 1, transform: UvTransform::from_gltf(Vec2::new(0.25, 0.0), 0.0, Vec2::ONE) };
+        let r = TextureRef {
+            texture: 0,
+            tex_coord: 1,
+            transform: UvTransform::from_gltf(Vec2::new(0.25, 0.0), 0.0, Vec2::ONE),
+        };
         assert_eq!(r.uv(&[Vec2::ZERO, Vec2::new(0.5, 0.5)]), Vec2::new(0.75, 0.5));
         assert_eq!(UvTransform::IDENTITY.apply(Vec2::new(0.3, 0.7)), Vec2::new(0.3, 0.7));
     }

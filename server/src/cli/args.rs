@@ -88,14 +88,23 @@ impl JobArgs {
             light_sampler: Some(self.light_sampler.clone()),
             background: self.background,
             priority: Some(self.priority),
-            frames: self.frames.map(|(start, end, step)| FrameRange { start, end, step: Some(step), fps: Some(self.fps) }),
+            frames: self.frames.map(|(start, end, step)| FrameRange {
+                start,
+                end,
+                step: Some(step),
+                fps: Some(self.fps),
+            }),
             animation: self.animation.clone(),
         }
     }
 }
 
 fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
-    let v: Vec<f32> = s.split(',').map(|x| x.trim().parse::<f32>()).collect::<Result<_, _>>().map_err(|e| format!("{s:?}: {e}"))?;
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("{s:?}: {e}"))?;
     match v[..] {
         [r, g, b] if v.iter().all(|x| x.is_finite() && *x >= 0.0) => Ok([r, g, b]),
         [x] if x.is_finite() && x >= 0.0 => Ok([x; 3]),
@@ -105,7 +114,9 @@ fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
 
 /// `A..B`, `A..B:STEP` or `N` → (start, end, step).
 fn parse_frames(s: &str) -> Result<(u32, u32, u32), String> {
-    let num = |x: &str| x.trim().parse::<u32>().map_err(|e| format!("{s:?}: {x:?} is not a frame number ({e})"));
+    let num = |x: &str| {
+        x.trim().parse::<u32>().map_err(|e| format!("{s:?}: {x:?} is not a frame number ({e})"))
+    };
     let (range, step) = match s.split_once(':') {
         Some((r, st)) => (r, num(st)?),
         None => (s, 1),
@@ -115,7 +126,9 @@ fn parse_frames(s: &str) -> Result<(u32, u32, u32), String> {
         None => (num(range)?, num(range)?),
     };
     if a > b || step == 0 {
-        return Err(format!("{s:?}: expected A..B with A ≤ B (inclusive), optionally :STEP with STEP ≥ 1"));
+        return Err(format!(
+            "{s:?}: expected A..B with A ≤ B (inclusive), optionally :STEP with STEP ≥ 1"
+        ));
     }
     Ok((a, b, step))
 }

@@ -20,7 +20,10 @@ pub fn run(a: HealthcheckArgs) -> anyhow::Result<()> {
     let timeout = timeout(a.timeout)?;
     let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
     rt.block_on(async {
-        let http = reqwest::Client::builder().timeout(timeout).build().context("cannot build the HTTP client")?;
+        let http = reqwest::Client::builder()
+            .timeout(timeout)
+            .build()
+            .context("cannot build the HTTP client")?;
         let resp = http.get(&a.url).send().await.with_context(|| format!("GET {}", a.url))?;
         let status = resp.status();
         if !status.is_success() {
@@ -32,7 +35,10 @@ pub fn run(a: HealthcheckArgs) -> anyhow::Result<()> {
 }
 
 fn timeout(secs: f64) -> anyhow::Result<Duration> {
-    Duration::try_from_secs_f64(secs).ok().filter(|d| !d.is_zero()).with_context(|| format!("--timeout {secs}: expected a number of seconds > 0"))
+    Duration::try_from_secs_f64(secs)
+        .ok()
+        .filter(|d| !d.is_zero())
+        .with_context(|| format!("--timeout {secs}: expected a number of seconds > 0"))
 }
 
 #[cfg(test)]
@@ -51,7 +57,9 @@ mod tests {
     fn a_port_nobody_listens_on_is_unhealthy() {
         // Bind then drop: the port is free and refuses connections.
         let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
-        let err = run(HealthcheckArgs { url: format!("http://127.0.0.1:{port}/healthz"), timeout: 1.0 }).unwrap_err();
+        let err =
+            run(HealthcheckArgs { url: format!("http://127.0.0.1:{port}/healthz"), timeout: 1.0 })
+                .unwrap_err();
         assert!(format!("{err:#}").contains("/healthz"), "{err:#}");
     }
 }

@@ -11,8 +11,12 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "tessera", version, about = "Tessera: a distributed render farm for physically based images",
-    long_about = "Tessera path-traces glTF 2.0 scenes. `render` renders on this machine (a coordinator and a worker in one process); `serve` runs a coordinator; `work` runs a worker that pulls units from a coordinator; `submit` sends a job to a coordinator; `job` reads, pauses, resumes or cancels one; `healthcheck` probes a coordinator (for containers). Benchmarks are a separate command, `tessera-bench`.\n\nLogs go to stderr; set RUST_LOG (e.g. RUST_LOG=debug) to change their level.")]
+#[command(
+    name = "tessera",
+    version,
+    about = "Tessera: a distributed render farm for physically based images",
+    long_about = "Tessera path-traces glTF 2.0 scenes. `render` renders on this machine (a coordinator and a worker in one process); `serve` runs a coordinator; `work` runs a worker that pulls units from a coordinator; `submit` sends a job to a coordinator; `job` reads, pauses, resumes or cancels one; `healthcheck` probes a coordinator (for containers). Benchmarks are a separate command, `tessera-bench`.\n\nLogs go to stderr; set RUST_LOG (e.g. RUST_LOG=debug) to change their level."
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -25,7 +29,9 @@ enum Command {
     /// Run a coordinator: accepts jobs over HTTP and leases units to workers.
     Serve(serve::ServeArgs),
     /// Run a worker: pulls units from a coordinator, renders them on all cores, returns sums.
-    #[command(after_help = "On SIGTERM or Ctrl-C the worker takes no new unit, gives back the one it prefetched, lets the unit in hand finish within 2 s (and uploads it) or gives it back, then deregisters from the coordinator and exits 0.\n\nThe allocator gives freed memory back to the system after 10 ms (MIMALLOC_PURGE_DELAY, in milliseconds, overrides it), which keeps a BVH build's peak low.")]
+    #[command(
+        after_help = "On SIGTERM or Ctrl-C the worker takes no new unit, gives back the one it prefetched, lets the unit in hand finish within 2 s (and uploads it) or gives it back, then deregisters from the coordinator and exits 0.\n\nThe allocator gives freed memory back to the system after 10 ms (MIMALLOC_PURGE_DELAY, in milliseconds, overrides it), which keeps a BVH build's peak low."
+    )]
     Work(work::WorkArgs),
     /// Submit a job to a coordinator, optionally wait for it and download the image.
     Submit(submit::SubmitArgs),
@@ -39,7 +45,9 @@ enum Command {
 /// ids never share a job while one of each is live).
 fn long_version() -> &'static str {
     static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
-    TEXT.get_or_init(|| format!("{}\nrenderer: {}", env!("CARGO_PKG_VERSION"), tessera_render::renderer_id()))
+    TEXT.get_or_init(|| {
+        format!("{}\nrenderer: {}", env!("CARGO_PKG_VERSION"), tessera_render::renderer_id())
+    })
 }
 
 /// The command line, parsed. The renderer id's libm probe (about a millisecond, half of a
@@ -64,9 +72,19 @@ fn say(line: std::fmt::Arguments) -> std::io::Result<()> {
 
 pub fn main() -> ExitCode {
     let cli = parse();
-    let default_level = if matches!(cli.command, Command::Render(_) | Command::Submit(_) | Command::Job(_) | Command::Healthcheck(_)) { "warn" } else { "info" };
+    let default_level = if matches!(
+        cli.command,
+        Command::Render(_) | Command::Submit(_) | Command::Job(_) | Command::Healthcheck(_)
+    ) {
+        "warn"
+    } else {
+        "info"
+    };
     tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| default_level.into()))
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| default_level.into()),
+        )
         .with_writer(std::io::stderr)
         .init();
     let result = match cli.command {

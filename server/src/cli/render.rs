@@ -32,11 +32,17 @@ pub struct RenderArgs {
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     tessera_server::purge::for_scene_builders();
     if !Path::new(&a.scene).is_file() && bundled::get(&a.scene).is_none() {
-        anyhow::bail!("{:?} is neither a file nor a bundled scene ({})", a.scene, bundled::names().join(", "));
+        anyhow::bail!(
+            "{:?} is neither a file nor a bundled scene ({})",
+            a.scene,
+            bundled::names().join(", ")
+        );
     }
     let scratch = tessera_server::scratch::ScratchDir::new("render");
     let rt = tokio::runtime::Runtime::new()?;
-    rt.block_on(tessera_server::local::with_local_farm(scratch.path(), a.threads, |c| submit_and_fetch(&a, c)))
+    rt.block_on(tessera_server::local::with_local_farm(scratch.path(), a.threads, |c| {
+        submit_and_fetch(&a, c)
+    }))
 }
 
 async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> {
@@ -49,11 +55,17 @@ async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> 
         download_each(&c, &job, p, "preview.png").await?;
     }
     let secs = start.elapsed().as_secs_f64();
-    let samples = job.progress.samples_done * (a.job.width as f64 * a.job.height as f64) * job.frames.len().max(1) as f64;
+    let samples = job.progress.samples_done
+        * (a.job.width as f64 * a.job.height as f64)
+        * job.frames.len().max(1) as f64;
     // What the workers reported for loading the scene and building (or refitting) its BVH.
     let prepare_ms: f64 = job.frames.iter().map(|f| f.prepare_ms).sum();
     // One process holds coordinator and workers here, so this is the whole render's peak.
-    let peak_mib = job.frames.iter().filter_map(|f| f.worker_peak_rss_bytes).max().map_or_else(|| "unknown".into(), |b| format!("{:.0} MiB", b as f64 / f64::from(1 << 20)));
+    let peak_mib =
+        job.frames.iter().filter_map(|f| f.worker_peak_rss_bytes).max().map_or_else(
+            || "unknown".into(),
+            |b| format!("{:.0} MiB", b as f64 / f64::from(1 << 20)),
+        );
     super::say(format_args!(
         "{}: {}x{} at {:.0} spp in {:.2} s ({:.0} samples/s); estimated relMSE {:.3e}; dropped {} non-finite samples; max sample weight {:.3}; effects: {}; scene load + BVH build {:.1} ms; peak memory {}",
         files_label(&files),
@@ -78,7 +90,9 @@ async fn submit_and_fetch(a: &RenderArgs, c: Coordinator) -> anyhow::Result<()> 
 fn files_label(files: &[PathBuf]) -> String {
     match files {
         [one] => one.display().to_string(),
-        [first, .., last] => format!("{} … {} ({} frames)", first.display(), last.display(), files.len()),
+        [first, .., last] => {
+            format!("{} … {} ({} frames)", first.display(), last.display(), files.len())
+        }
         [] => String::new(),
     }
 }

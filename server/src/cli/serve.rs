@@ -54,12 +54,22 @@ pub struct ServeArgs {
 }
 
 pub fn run(a: ServeArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(a.lease_timeout > 0.0 && a.lease_timeout.is_finite(), "--lease-timeout must be > 0");
-    anyhow::ensure!(a.checkpoint_interval >= 0.0 && a.checkpoint_interval.is_finite(), "--checkpoint-interval must be >= 0");
+    anyhow::ensure!(
+        a.lease_timeout > 0.0 && a.lease_timeout.is_finite(),
+        "--lease-timeout must be > 0"
+    );
+    anyhow::ensure!(
+        a.checkpoint_interval >= 0.0 && a.checkpoint_interval.is_finite(),
+        "--checkpoint-interval must be >= 0"
+    );
     anyhow::ensure!(a.max_failures >= 1, "--max-failures must be at least 1");
-    anyhow::ensure!(a.delete_ended_after.is_none_or(|h| h >= 0.0 && h.is_finite()), "--delete-ended-after must be a number of hours >= 0");
+    anyhow::ensure!(
+        a.delete_ended_after.is_none_or(|h| h >= 0.0 && h.is_finite()),
+        "--delete-ended-after must be a number of hours >= 0"
+    );
     let mut config = Config::new(a.data.clone());
-    config.checkpoint_ms = (a.checkpoint_interval > 0.0).then_some((a.checkpoint_interval * 1000.0) as u64);
+    config.checkpoint_ms =
+        (a.checkpoint_interval > 0.0).then_some((a.checkpoint_interval * 1000.0) as u64);
     config.max_failures = a.max_failures;
     config.frame_affinity = a.frame_affinity;
     config.mix_renderers = a.mix_renderers;

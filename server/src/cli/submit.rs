@@ -52,7 +52,9 @@ pub fn run(a: SubmitArgs) -> anyhow::Result<()> {
 
 /// Follows a job to its end with a progress bar; errors if it failed or was canceled.
 pub async fn follow(c: &Coordinator, id: &str) -> anyhow::Result<Job> {
-    let bar = ProgressBar::new(1000).with_style(ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {msg}").expect("valid template"));
+    let bar = ProgressBar::new(1000).with_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {msg}").expect("valid template"),
+    );
     let job = c
         .wait(id, |j| {
             bar.set_position((j.progress.fraction * 1000.0) as u64);
@@ -73,10 +75,21 @@ pub async fn download(c: &Coordinator, job: &Job, out: &Path) -> anyhow::Result<
 }
 
 /// As [`download`], for any per-frame image (`image.exr`, `preview.png`).
-pub async fn download_each(c: &Coordinator, job: &Job, out: &Path, what: &str) -> anyhow::Result<Vec<PathBuf>> {
+pub async fn download_each(
+    c: &Coordinator,
+    job: &Job,
+    out: &Path,
+    what: &str,
+) -> anyhow::Result<Vec<PathBuf>> {
     let targets: Vec<(String, PathBuf)> = match job.request.frames {
         None => vec![(format!("/v1/jobs/{}/{what}", job.id), out.to_path_buf())],
-        Some(_) => job.frames.iter().map(|f| (format!("/v1/jobs/{}/frames/{}/{what}", job.id, f.frame), frame_path(out, f.frame))).collect(),
+        Some(_) => job
+            .frames
+            .iter()
+            .map(|f| {
+                (format!("/v1/jobs/{}/frames/{}/{what}", job.id, f.frame), frame_path(out, f.frame))
+            })
+            .collect(),
     };
     for (url, path) in &targets {
         let bytes = c.bytes(url).await?;

@@ -22,8 +22,17 @@ pub struct WorkArgs {
 
 pub fn run(a: WorkArgs) -> anyhow::Result<()> {
     tessera_server::purge::for_scene_builders();
-    let name = a.name.clone().unwrap_or_else(|| std::fs::read_to_string("/etc/hostname").map(|s| s.trim().to_string()).unwrap_or_else(|_| "worker".into()));
-    let config = tessera_worker::client::WorkerConfig { coordinator: a.coordinator, token: a.token, threads: a.threads, name };
+    let name = a.name.clone().unwrap_or_else(|| {
+        std::fs::read_to_string("/etc/hostname")
+            .map(|s| s.trim().to_string())
+            .unwrap_or_else(|_| "worker".into())
+    });
+    let config = tessera_worker::client::WorkerConfig {
+        coordinator: a.coordinator,
+        token: a.token,
+        threads: a.threads,
+        name,
+    };
     let rt = tokio::runtime::Runtime::new()?;
     if let Some(addr) = &a.health_listen {
         rt.block_on(serve_health(addr))?;
@@ -36,7 +45,9 @@ pub fn run(a: WorkArgs) -> anyhow::Result<()> {
 /// Serves `/healthz` in the background. It answers while the worker's runtime does (a wedged
 /// runtime or a dead process fails the probe); the worker never waits for it.
 async fn serve_health(addr: &str) -> anyhow::Result<()> {
-    let listener = tokio::net::TcpListener::bind(addr).await.map_err(|e| anyhow::anyhow!("--health-listen {addr}: {e}"))?;
+    let listener = tokio::net::TcpListener::bind(addr)
+        .await
+        .map_err(|e| anyhow::anyhow!("--health-listen {addr}: {e}"))?;
     let app = axum::Router::new().route("/healthz", axum::routing::get(|| async { "ok" }));
     tracing::info!(addr = %listener.local_addr()?, "answering /healthz");
     tokio::spawn(async move { axum::serve(listener, app).await });

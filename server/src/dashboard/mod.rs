@@ -37,7 +37,8 @@ pub fn router<S: Clone + Send + Sync + 'static>() -> Router<S> {
 
 /// Whether a request path is one of the dashboard's static files (served without a token).
 pub fn is_static(path: &str) -> bool {
-    path == "/" || path.strip_prefix("/ui/").is_some_and(|f| ASSETS.iter().any(|(name, _, _)| *name == f))
+    path == "/"
+        || path.strip_prefix("/ui/").is_some_and(|f| ASSETS.iter().any(|(name, _, _)| *name == f))
 }
 
 async fn index() -> Response {

@@ -36,7 +36,8 @@ pub fn files_digest(files: &[PathBuf]) -> Result<String> {
     let mut digests = Vec::with_capacity(files.len());
     for path in files {
         let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-        let (image, _) = decode_exr(&bytes).with_context(|| format!("decoding {}", path.display()))?;
+        let (image, _) =
+            decode_exr(&bytes).with_context(|| format!("decoding {}", path.display()))?;
         digests.push(image.pixel_digest());
     }
     Ok(match digests.as_slice() {
@@ -90,7 +91,9 @@ mod tests {
     fn files_with_different_metadata_and_the_same_pixels_agree() {
         let dir = std::env::temp_dir().join(format!("tessera-digest-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let meta = |t: f64| vec![("tessera.render_time_s".to_string(), crate::output::MetaValue::Double(t))];
+        let meta = |t: f64| {
+            vec![("tessera.render_time_s".to_string(), crate::output::MetaValue::Double(t))]
+        };
         let (a, b) = (dir.join("a.exr"), dir.join("b.exr"));
         std::fs::write(&a, encode_exr(&image(), &meta(1.0)).unwrap()).unwrap();
         std::fs::write(&b, encode_exr(&image(), &meta(2.0)).unwrap()).unwrap();
@@ -100,7 +103,12 @@ mod tests {
         assert_eq!(files_digest(std::slice::from_ref(&b)).unwrap(), one);
         let seq = files_digest(&[a.clone(), b.clone()]).unwrap();
         assert_ne!(seq, one, "a sequence hashes its frames' digests");
-        assert!(files_digest(&[dir.join("missing.exr")]).unwrap_err().to_string().contains("missing.exr"));
+        assert!(
+            files_digest(&[dir.join("missing.exr")])
+                .unwrap_err()
+                .to_string()
+                .contains("missing.exr")
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -43,21 +43,14 @@ pub fn encode_exr(img: &ImageLayers, meta: &[(String, MetaValue)]) -> Result<Vec
     }
     channels.push(f32_channel(SAMPLES, img.samples.iter().copied()));
     let size = (img.width, img.height);
-    let layer = Layer::new(
-        size,
-        layer_attributes(meta)?,
-        ENCODING,
-        AnyChannels::sort(channels),
-    );
+    let layer = Layer::new(size, layer_attributes(meta)?, ENCODING, AnyChannels::sort(channels));
     let image = Image::from_layer(layer);
     let mut writer = image.write();
     if img.width * img.height < PARALLEL_MIN_PIXELS {
         writer = writer.non_parallel();
     }
     let mut bytes = Vec::new();
-    writer
-        .to_buffered(Cursor::new(&mut bytes))
-        .context("encoding EXR")?;
+    writer.to_buffered(Cursor::new(&mut bytes)).context("encoding EXR")?;
     Ok(bytes)
 }
 
@@ -99,9 +92,7 @@ fn read_first_layer(bytes: &[u8]) -> Result<Image<AnyLayer>> {
     if pixels < PARALLEL_MIN_PIXELS {
         reader = reader.non_parallel();
     }
-    reader
-        .from_buffered(Cursor::new(bytes))
-        .context("decoding EXR pixels")
+    reader.from_buffered(Cursor::new(bytes)).context("decoding EXR pixels")
 }
 
 fn image_layers(layer: &AnyLayer) -> Result<ImageLayers> {
@@ -111,10 +102,7 @@ fn image_layers(layer: &AnyLayer) -> Result<ImageLayers> {
     let rgb = match (find(RGB[0])?, find(RGB[1])?, find(RGB[2])?, find("Y")?) {
         (Some(r), Some(g), Some(b), _) => [r, g, b],
         (None, None, None, Some(y)) => [y.clone(), y.clone(), y],
-        _ => bail!(
-            "EXR has no R,G,B or Y channels (found: {})",
-            channel_names(layer)
-        ),
+        _ => bail!("EXR has no R,G,B or Y channels (found: {})", channel_names(layer)),
     };
     fill(&mut img.rgb, rgb);
     let variance = (find(VARIANCE[0])?, find(VARIANCE[1])?, find(VARIANCE[2])?);
@@ -146,9 +134,7 @@ fn layer_attributes(meta: &[(String, MetaValue)]) -> Result<LayerAttributes> {
         };
         let fresh = match (slot, value) {
             (Some(slot), MetaValue::Text(text)) => slot.replace(utf8_text(text)).is_none(),
-            _ => other
-                .insert(utf8_text(name), attribute_value(value))
-                .is_none(),
+            _ => other.insert(utf8_text(name), attribute_value(value)).is_none(),
         };
         ensure!(fresh, "metadata name `{name}` given twice");
     }
@@ -184,10 +170,7 @@ fn read_meta(attributes: &LayerAttributes) -> Vec<(String, MetaValue)> {
     let standard = standard.into_iter().filter_map(|(name, text)| {
         Some((name.to_owned(), MetaValue::Text(string_of(text.as_ref()?))))
     });
-    let other = attributes
-        .other
-        .iter()
-        .filter_map(|(k, v)| meta_entry(k, v));
+    let other = attributes.other.iter().filter_map(|(k, v)| meta_entry(k, v));
     standard.chain(other).collect()
 }
 
@@ -214,20 +197,12 @@ fn channel_values(
         return Ok(None);
     };
     let values: Vec<f32> = channel.sample_data.values_as_f32().collect();
-    ensure!(
-        values.len() == n,
-        "channel `{name}` is subsampled, which is not supported"
-    );
+    ensure!(values.len() == n, "channel `{name}` is subsampled, which is not supported");
     Ok(Some(values))
 }
 
 fn channel_names(layer: &AnyLayer) -> String {
-    let names: Vec<String> = layer
-        .channel_data
-        .list
-        .iter()
-        .map(|c| string_of(&c.name))
-        .collect();
+    let names: Vec<String> = layer.channel_data.list.iter().map(|c| string_of(&c.name)).collect();
     names.join(", ")
 }
 
@@ -242,17 +217,9 @@ fn fill(target: &mut [[f32; 3]], [r, g, b]: [Vec<f32>; 3]) {
 fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let name = path.file_name().context("output path has no file name")?;
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let unique = (std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed));
-    let temp = dir.join(format!(
-        ".{}.{}-{}.tmp",
-        name.to_string_lossy(),
-        unique.0,
-        unique.1
-    ));
+    let temp = dir.join(format!(".{}.{}-{}.tmp", name.to_string_lossy(), unique.0, unique.1));
     let result = write_and_sync(&temp, bytes).and_then(|()| Ok(fs::rename(&temp, path)?));
     if result.is_err() {
         let _ = fs::remove_file(&temp);

@@ -55,7 +55,12 @@ fn exr_meta(job: &JobRun, index: usize, now: u64) -> Vec<(String, MetaValue)> {
         ("tessera.seed".into(), MetaValue::Text(p.seed.to_string())),
         ("tessera.estimator".into(), MetaValue::Text(p.estimator.clone())),
         ("tessera.sampler".into(), MetaValue::Text(p.sampler.clone())),
-        ("tessera.light_sampler".into(), MetaValue::Text(p.light_sampler.clone().unwrap_or_else(|| LightSampler::Auto.name().into()))),
+        (
+            "tessera.light_sampler".into(),
+            MetaValue::Text(
+                p.light_sampler.clone().unwrap_or_else(|| LightSampler::Auto.name().into()),
+            ),
+        ),
         ("tessera.effects".into(), MetaValue::Text(job.cfg.effects.join(","))),
         // The frame's own: an animation's frame may be written while later frames still render.
         ("tessera.dropped_samples".into(), MetaValue::Text(job.frame_dropped(index).to_string())),
@@ -69,8 +74,10 @@ fn exr_meta(job: &JobRun, index: usize, now: u64) -> Vec<(String, MetaValue)> {
         meta.push(("tessera.frame".into(), MetaValue::Text(job.frame_number(index).to_string())));
         meta.push(("tessera.time_s".into(), MetaValue::Double(job.frame_time_s(index))));
         meta.push(("tessera.fps".into(), MetaValue::Double(p.fps)));
-        meta.push(("tessera.animation".into(), MetaValue::Text(p.animation.clone().unwrap_or_else(|| "first".into()))));
+        meta.push((
+            "tessera.animation".into(),
+            MetaValue::Text(p.animation.clone().unwrap_or_else(|| "first".into())),
+        ));
     }
     meta
 }
-

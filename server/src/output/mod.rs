@@ -77,12 +77,7 @@ impl ImageLayers {
     /// Errors unless every layer holds exactly `width * height` pixels.
     pub fn check(&self) -> Result<()> {
         let n = self.width.checked_mul(self.height);
-        ensure!(
-            n.is_some_and(|n| n > 0),
-            "image is {}x{}: no pixels",
-            self.width,
-            self.height
-        );
+        ensure!(n.is_some_and(|n| n > 0), "image is {}x{}: no pixels", self.width, self.height);
         for (name, len) in [
             ("rgb", self.rgb.len()),
             ("variance", self.variance.len()),

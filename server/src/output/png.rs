@@ -32,11 +32,7 @@ fn linear_to_srgb8(v: f32) -> u8 {
         return 0;
     }
     let v = v.clamp(0.0, 1.0);
-    let encoded = if v <= 0.003_130_8 {
-        12.92 * v
-    } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    };
+    let encoded = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
     (encoded * 255.0).round() as u8
 }
 
@@ -74,10 +70,7 @@ mod tests {
 
     #[test]
     fn non_finite_pixels_become_black() {
-        let rgb = [
-            [f32::NAN, f32::INFINITY, f32::NEG_INFINITY],
-            [f32::NAN, 0.5, 1.0],
-        ];
+        let rgb = [[f32::NAN, f32::INFINITY, f32::NEG_INFINITY], [f32::NAN, 0.5, 1.0]];
         let img = decode(&encode_png_preview(2, 1, &rgb));
         assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
         assert_eq!(img.get_pixel(1, 0).0, [0, 188, 255]);

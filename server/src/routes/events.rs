@@ -15,7 +15,10 @@ pub(crate) const COALESCE: Duration = Duration::from_millis(100);
 /// Progress events (`event: progress`, data: the job JSON), ending with `event: end`.
 #[utoipa::path(get, path = "/v1/jobs/{id}/events", tag = "jobs", params(("id" = String, Path)),
     responses((status = 200, content_type = "text/event-stream"), (status = 404, body = tessera_proto::Problem)))]
-pub async fn events(State(st): State<AppState>, Path(id): Path<String>) -> Result<Sse<impl Stream<Item = Result<Event, Infallible>>>, AppError> {
+pub async fn events(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Sse<impl Stream<Item = Result<Event, Infallible>>>, AppError> {
     let first = status_of(&st, &id)?;
     let mut rx = st.events.subscribe();
     let stream = async_stream(move |tx| async move {

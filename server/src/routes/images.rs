@@ -17,7 +17,10 @@ use tessera_proto::Problem;
 /// The job's OpenEXR image (its first frame): final once the job has ended, else the current merge.
 #[utoipa::path(get, path = "/v1/jobs/{id}/image.exr", tag = "jobs", params(("id" = String, Path)),
     responses((status = 200, content_type = "image/x-exr"), (status = 404, body = Problem)))]
-pub async fn image_exr(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
+pub async fn image_exr(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<impl IntoResponse, AppError> {
     let bytes = frame_exr_bytes(&st, &id, 0).await?;
     Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes))
 }
@@ -25,14 +28,20 @@ pub async fn image_exr(State(st): State<AppState>, Path(id): Path<String>) -> Re
 /// An sRGB PNG preview of the current merge (the first frame).
 #[utoipa::path(get, path = "/v1/jobs/{id}/preview.png", tag = "jobs", params(("id" = String, Path)),
     responses((status = 200, content_type = "image/png"), (status = 404, body = Problem)))]
-pub async fn preview_png(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
+pub async fn preview_png(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<impl IntoResponse, AppError> {
     png(&st, &id, 0).await
 }
 
 /// One frame's OpenEXR image, by frame number: final once the job has ended, else the current merge.
 #[utoipa::path(get, path = "/v1/jobs/{id}/frames/{n}/image.exr", tag = "jobs", params(("id" = String, Path), ("n" = u32, Path)),
     responses((status = 200, content_type = "image/x-exr"), (status = 404, body = Problem)))]
-pub async fn frame_exr(State(st): State<AppState>, Path((id, n)): Path<(String, u32)>) -> Result<impl IntoResponse, AppError> {
+pub async fn frame_exr(
+    State(st): State<AppState>,
+    Path((id, n)): Path<(String, u32)>,
+) -> Result<impl IntoResponse, AppError> {
     let index = frame_index(&st, &id, n)?;
     let bytes = frame_exr_bytes(&st, &id, index).await?;
     Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes))
@@ -41,7 +50,10 @@ pub async fn frame_exr(State(st): State<AppState>, Path((id, n)): Path<(String, 
 /// One frame's sRGB PNG preview, by frame number.
 #[utoipa::path(get, path = "/v1/jobs/{id}/frames/{n}/preview.png", tag = "jobs", params(("id" = String, Path), ("n" = u32, Path)),
     responses((status = 200, content_type = "image/png"), (status = 404, body = Problem)))]
-pub async fn frame_png(State(st): State<AppState>, Path((id, n)): Path<(String, u32)>) -> Result<impl IntoResponse, AppError> {
+pub async fn frame_png(
+    State(st): State<AppState>,
+    Path((id, n)): Path<(String, u32)>,
+) -> Result<impl IntoResponse, AppError> {
     let index = frame_index(&st, &id, n)?;
     png(&st, &id, index).await
 }
@@ -50,7 +62,10 @@ pub async fn frame_png(State(st): State<AppState>, Path((id, n)): Path<(String, 
 /// `frame_0000.exr`, … by frame number.
 #[utoipa::path(get, path = "/v1/jobs/{id}/frames.zip", tag = "jobs", params(("id" = String, Path)),
     responses((status = 200, content_type = "application/zip"), (status = 404, body = Problem)))]
-pub async fn frames_zip(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
+pub async fn frames_zip(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<impl IntoResponse, AppError> {
     let numbers = {
         let s = st.scheduler.lock().expect("lock");
         let job = s.job(&id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
@@ -61,14 +76,25 @@ pub async fn frames_zip(State(st): State<AppState>, Path(id): Path<String>) -> R
     for (index, n) in numbers.into_iter().enumerate() {
         files.push((format!("frame_{n:04}.exr"), exr_bytes(&st, &id, index, ended).await?));
     }
-    let zip = tokio::task::spawn_blocking(move || zip_stored(files)).await.map_err(AppError::internal)?.map_err(AppError::internal)?;
+    let zip = tokio::task::spawn_blocking(move || zip_stored(files))
+        .await
+        .map_err(AppError::internal)?
+        .map_err(AppError::internal)?;
     let disposition = format!("attachment; filename=\"{id}-frames.zip\"");
-    Ok(([(header::CONTENT_TYPE, "application/zip".to_string()), (header::CONTENT_DISPOSITION, disposition)], zip))
+    Ok((
+        [
+            (header::CONTENT_TYPE, "application/zip".to_string()),
+            (header::CONTENT_DISPOSITION, disposition),
+        ],
+        zip,
+    ))
 }
 
 fn zip_stored(files: Vec<(String, Vec<u8>)>) -> anyhow::Result<Vec<u8>> {
     let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
-    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored).large_file(true);
+    let options = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Stored)
+        .large_file(true);
     for (name, bytes) in files {
         zip.start_file(name, options)?;
         zip.write_all(&bytes)?;
@@ -80,9 +106,12 @@ fn zip_stored(files: Vec<(String, Vec<u8>)>) -> anyhow::Result<Vec<u8>> {
 fn frame_index(st: &AppState, id: &str, n: u32) -> Result<usize, AppError> {
     let s = st.scheduler.lock().expect("lock");
     let job = s.job(id).ok_or_else(|| AppError::not_found(format!("no job {id:?}")))?;
-    (0..job.frame_count())
-        .find(|&i| job.frame_number(i) == n)
-        .ok_or_else(|| AppError::not_found(format!("job {id:?} has no frame {n} (its frames are {:?})", job.cfg.frames)))
+    (0..job.frame_count()).find(|&i| job.frame_number(i) == n).ok_or_else(|| {
+        AppError::not_found(format!(
+            "job {id:?} has no frame {n} (its frames are {:?})",
+            job.cfg.frames
+        ))
+    })
 }
 
 async fn frame_exr_bytes(st: &AppState, id: &str, index: usize) -> Result<Vec<u8>, AppError> {
@@ -96,7 +125,9 @@ async fn finalize_if_ended(st: &AppState, id: &str) -> Result<bool, AppError> {
     let ended = st.scheduler.lock().expect("lock").job(id).is_some_and(|j| j.state.is_final());
     if ended {
         let (st2, id2) = (st.clone(), id.to_string());
-        tokio::task::spawn_blocking(move || st2.finalize(&id2)).await.map_err(AppError::internal)?;
+        tokio::task::spawn_blocking(move || st2.finalize(&id2))
+            .await
+            .map_err(AppError::internal)?;
     }
     Ok(ended)
 }
@@ -119,31 +150,41 @@ async fn pixels(st: &AppState, id: &str, index: usize, ended: bool) -> Result<Pi
     match snapshot(st, id, index)? {
         Some(merge) => Ok(Pixels::Merge(merge)),
         // Released since the look above.
-        None => image_file(st, id, index)
-            .await?
-            .map(Pixels::File)
-            .ok_or_else(|| AppError::not_found(format!("frame {index} of job {id:?} has neither its sums nor its file"))),
+        None => image_file(st, id, index).await?.map(Pixels::File).ok_or_else(|| {
+            AppError::not_found(format!(
+                "frame {index} of job {id:?} has neither its sums nor its file"
+            ))
+        }),
     }
 }
 
-async fn exr_bytes(st: &AppState, id: &str, index: usize, ended: bool) -> Result<Vec<u8>, AppError> {
+async fn exr_bytes(
+    st: &AppState,
+    id: &str,
+    index: usize,
+    ended: bool,
+) -> Result<Vec<u8>, AppError> {
     match pixels(st, id, index, ended).await? {
         Pixels::File(bytes) => Ok(bytes),
-        Pixels::Merge(merge) => {
-            tokio::task::spawn_blocking(move || merge.encode_exr()).await.map_err(AppError::internal)?.map_err(AppError::internal)
-        }
+        Pixels::Merge(merge) => tokio::task::spawn_blocking(move || merge.encode_exr())
+            .await
+            .map_err(AppError::internal)?
+            .map_err(AppError::internal),
     }
 }
 
 /// The bytes of a frame's file; None when it is not there and the frame still has its sums to
 /// encode instead; an error when neither is left.
 async fn image_file(st: &AppState, id: &str, index: usize) -> Result<Option<Vec<u8>>, AppError> {
-    let Some(path) = st.frame_image_path(id, index) else { return Err(AppError::not_found(format!("no job {id:?}"))) };
+    let Some(path) = st.frame_image_path(id, index) else {
+        return Err(AppError::not_found(format!("no job {id:?}")));
+    };
     match tokio::fs::read(&path).await {
         Ok(bytes) => Ok(Some(bytes)),
-        Err(e) if released(st, id, index) => {
-            Err(AppError::not_found(format!("the image of job {id:?} was written to {} and cannot be read: {e}", path.display())))
-        }
+        Err(e) if released(st, id, index) => Err(AppError::not_found(format!(
+            "the image of job {id:?} was written to {} and cannot be read: {e}",
+            path.display()
+        ))),
         Err(_) => Ok(None),
     }
 }
@@ -159,12 +200,15 @@ async fn png(st: &AppState, id: &str, index: usize) -> Result<impl IntoResponse 
     let ended = finalize_if_ended(st, id).await?;
     let png = match pixels(st, id, index, ended).await? {
         Pixels::File(bytes) => tokio::task::spawn_blocking(move || {
-            crate::output::decode_exr(&bytes).map(|(l, _)| crate::output::encode_png_preview(l.width, l.height, &l.rgb))
+            crate::output::decode_exr(&bytes)
+                .map(|(l, _)| crate::output::encode_png_preview(l.width, l.height, &l.rgb))
         })
         .await
         .map_err(AppError::internal)?
         .map_err(AppError::internal)?,
-        Pixels::Merge(merge) => tokio::task::spawn_blocking(move || merge.encode_png()).await.map_err(AppError::internal)?,
+        Pixels::Merge(merge) => tokio::task::spawn_blocking(move || merge.encode_png())
+            .await
+            .map_err(AppError::internal)?,
     };
     Ok(([(header::CONTENT_TYPE, "image/png"), (header::CACHE_CONTROL, "no-store")], png))
 }

@@ -7,16 +7,25 @@ use axum::extract::{Path, Query, State};
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use std::sync::atomic::Ordering;
-use tessera_proto::{sums, Heartbeat, Lease, LeaseRequest, PartialSums, Problem, Registration, WorkerHello, WorkerInfo};
+use tessera_proto::{
+    Heartbeat, Lease, LeaseRequest, PartialSums, Problem, Registration, WorkerHello, WorkerInfo,
+    sums,
+};
 
 /// Register a worker; returns its id.
 #[utoipa::path(post, path = "/v1/workers", tag = "workers", request_body = WorkerHello, responses((status = 201, body = Registration), (status = 400, body = Problem)))]
-pub async fn register(State(st): State<AppState>, Json(hello): Json<WorkerHello>) -> Result<impl IntoResponse, AppError> {
+pub async fn register(
+    State(st): State<AppState>,
+    Json(hello): Json<WorkerHello>,
+) -> Result<impl IntoResponse, AppError> {
     if hello.name.len() > 256 {
         return Err(AppError::field("name", "name must be at most 256 bytes"));
     }
     if hello.threads == 0 || hello.threads > 4096 {
-        return Err(AppError::field("threads", format!("expected threads in 1..=4096 (got {})", hello.threads)));
+        return Err(AppError::field(
+            "threads",
+            format!("expected threads in 1..=4096 (got {})", hello.threads),
+        ));
     }
     if hello.renderer.len() > 256 {
         return Err(AppError::field("renderer", "renderer must be at most 256 bytes"));
@@ -25,7 +34,12 @@ pub async fn register(State(st): State<AppState>, Json(hello): Json<WorkerHello>
     if hello.renderer.chars().any(char::is_control) {
         return Err(AppError::field("renderer", "renderer must not contain control characters"));
     }
-    let id = st.scheduler.lock().expect("lock").register(&hello.name, hello.threads, &hello.renderer, st.now());
+    let id = st.scheduler.lock().expect("lock").register(
+        &hello.name,
+        hello.threads,
+        &hello.renderer,
+        st.now(),
+    );
     tracing::info!(worker = %id, name = %hello.name, threads = hello.threads, renderer = %hello.renderer, "worker registered");
     let heartbeat_ms = (st.config.lease_timeout_ms / 3).max(100);
     Ok((StatusCode::CREATED, axum::Json(Registration { worker_id: id, heartbeat_ms })))
@@ -35,7 +49,10 @@ pub async fn register(State(st): State<AppState>, Json(hello): Json<WorkerHello>
 /// and it leaves the list. 404 for a worker the coordinator does not know.
 #[utoipa::path(delete, path = "/v1/workers/{id}", tag = "workers", params(("id" = String, Path)),
     responses((status = 204), (status = 404, body = Problem)))]
-pub async fn deregister(State(st): State<AppState>, Path(id): Path<String>) -> Result<StatusCode, AppError> {
+pub async fn deregister(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<StatusCode, AppError> {
     if !st.scheduler.lock().expect("lock").deregister_worker(&id) {
         return Err(AppError::not_found(format!("worker {id} is not registered")));
     }
@@ -61,7 +78,12 @@ pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<WorkerInfo>> {
                 failures: w.failures,
                 last_seen_ms_ago: now.saturating_sub(w.last_seen),
                 renderer: w.renderer.clone(),
-                idle_reason: w.current.is_none().then(|| s.idle_reason(id, now)).flatten().map(|why| why.to_string()),
+                idle_reason: w
+                    .current
+                    .is_none()
+                    .then(|| s.idle_reason(id, now))
+                    .flatten()
+                    .map(|why| why.to_string()),
                 rss_bytes: w.memory.map(|m| m.rss_bytes),
                 peak_rss_bytes: w.memory.map(|m| m.peak_rss_bytes),
             })
@@ -85,8 +107,13 @@ pub struct LeaseQuery {
 /// Take the next unit of work: 200 with a lease, 204 when there is none, 404 for unknown workers.
 #[utoipa::path(post, path = "/v1/leases", tag = "workers", request_body = LeaseRequest, params(LeaseQuery),
     responses((status = 200, body = Lease), (status = 204, description = "no work now; `x-tessera-idle-reason` says why when jobs with units left refuse this worker"), (status = 404, body = Problem)))]
-pub async fn lease(State(st): State<AppState>, Query(q): Query<LeaseQuery>, Json(req): Json<LeaseRequest>) -> Result<Response, AppError> {
-    let deadline = tokio::time::Instant::now() + std::time::Duration::from_millis(q.wait_ms.unwrap_or(0).min(5000));
+pub async fn lease(
+    State(st): State<AppState>,
+    Query(q): Query<LeaseQuery>,
+    Json(req): Json<LeaseRequest>,
+) -> Result<Response, AppError> {
+    let deadline = tokio::time::Instant::now()
+        + std::time::Duration::from_millis(q.wait_ms.unwrap_or(0).min(5000));
     let g = loop {
         // Register for wake-ups before looking, so work submitted in between is not missed.
         let woken = st.work_available.notified();
@@ -119,7 +146,11 @@ pub const IDLE_REASON: &str = "x-tessera-idle-reason";
 fn no_work(why: Option<IdleReason>) -> Response {
     let mut resp = StatusCode::NO_CONTENT.into_response();
     if let Some(why) = why {
-        let text: String = why.to_string().chars().map(|c| if c == ' ' || c.is_ascii_graphic() { c } else { '?' }).collect();
+        let text: String = why
+            .to_string()
+            .chars()
+            .map(|c| if c == ' ' || c.is_ascii_graphic() { c } else { '?' })
+            .collect();
         if let Ok(v) = header::HeaderValue::from_str(&text) {
             resp.headers_mut().insert(IDLE_REASON, v);
         }
@@ -130,18 +161,24 @@ fn no_work(why: Option<IdleReason>) -> Response {
 /// Extend a lease; 409 when it is gone (expired or its job ended): stop rendering it.
 #[utoipa::path(post, path = "/v1/leases/{id}/heartbeat", tag = "workers", params(("id" = String, Path)),
     responses((status = 200, body = Heartbeat), (status = 409, body = Problem)))]
-pub async fn heartbeat(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<Heartbeat>, AppError> {
+pub async fn heartbeat(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<axum::Json<Heartbeat>, AppError> {
     let deadline = st.scheduler.lock().expect("lock").heartbeat(&id, st.now());
     st.0.settle().await;
-    deadline
-        .map(|deadline_ms| axum::Json(Heartbeat { deadline_ms }))
-        .ok_or_else(|| AppError::new(StatusCode::CONFLICT, format!("lease {id} is no longer active")))
+    deadline.map(|deadline_ms| axum::Json(Heartbeat { deadline_ms })).ok_or_else(|| {
+        AppError::new(StatusCode::CONFLICT, format!("lease {id} is no longer active"))
+    })
 }
 
 /// Give a lease back unrendered.
 #[utoipa::path(delete, path = "/v1/leases/{id}", tag = "workers", params(("id" = String, Path)),
     responses((status = 204), (status = 404, body = Problem)))]
-pub async fn release(State(st): State<AppState>, Path(id): Path<String>) -> Result<StatusCode, AppError> {
+pub async fn release(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<StatusCode, AppError> {
     if st.scheduler.lock().expect("lock").release(&id) {
         st.work_available.notify_waiters();
         Ok(StatusCode::NO_CONTENT)
@@ -156,12 +193,23 @@ pub async fn release(State(st): State<AppState>, Path(id): Path<String>) -> Resu
     request_body(content = Vec<u8>, content_type = "application/x-tessera-sums"),
     responses((status = 200, body = Lease, description = "merged, and the worker's next unit (`next=true`)"),
         (status = 204, description = "merged (and, with `next=true`, no work now)"), (status = 409, body = Problem), (status = 415, body = Problem), (status = 422, body = Problem)))]
-pub async fn result(State(st): State<AppState>, Path(id): Path<String>, Query(q): Query<ResultQuery>, headers: HeaderMap, body: Bytes) -> Result<Response, AppError> {
+pub async fn result(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+    Query(q): Query<ResultQuery>,
+    headers: HeaderMap,
+    body: Bytes,
+) -> Result<Response, AppError> {
     // A body sent as something else (JSON, text) is a client bug, not a bad unit: say so and
     // leave the lease alone.
-    let ct = headers.get(header::CONTENT_TYPE).map(|v| v.to_str().unwrap_or("?").split(';').next().unwrap_or("").trim());
+    let ct = headers
+        .get(header::CONTENT_TYPE)
+        .map(|v| v.to_str().unwrap_or("?").split(';').next().unwrap_or("").trim());
     if ct.is_some_and(|ct| ct != sums::CONTENT_TYPE && ct != "application/octet-stream") {
-        return Err(AppError::new(StatusCode::UNSUPPORTED_MEDIA_TYPE, format!("results are {} (got {:?})", sums::CONTENT_TYPE, ct.unwrap_or(""))));
+        return Err(AppError::new(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            format!("results are {} (got {:?})", sums::CONTENT_TYPE, ct.unwrap_or("")),
+        ));
     }
     let sums = match PartialSums::decode(&body) {
         Ok(s) => s,
@@ -169,7 +217,10 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, Query(q)
             st.counters.results_malformed.fetch_add(1, Ordering::Relaxed);
             // A malformed body cannot be merged: the unit goes back to the queue.
             st.scheduler.lock().expect("lock").release(&id);
-            return Err(AppError::new(StatusCode::UNPROCESSABLE_ENTITY, format!("malformed result: {e}")));
+            return Err(AppError::new(
+                StatusCode::UNPROCESSABLE_ENTITY,
+                format!("malformed result: {e}"),
+            ));
         }
     };
     let (outcome, next) = {
@@ -185,10 +236,12 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, Query(q)
         st.counters.merge_nanos.fetch_add(t0.elapsed().as_nanos() as u64, Ordering::Relaxed);
         // The worker's next unit in the same answer: one request per unit instead of two.
         let next = match &outcome {
-            Ok(a) if q.next == Some(true) => match sched.lease(&a.worker, st.now()).ok().flatten() {
-                Some(lease) => Ok(lease),
-                None => Err(sched.idle_reason(&a.worker, st.now())),
-            },
+            Ok(a) if q.next == Some(true) => {
+                match sched.lease(&a.worker, st.now()).ok().flatten() {
+                    Some(lease) => Ok(lease),
+                    None => Err(sched.idle_reason(&a.worker, st.now())),
+                }
+            }
             _ => Err(None),
         };
         (outcome, next)
@@ -207,7 +260,9 @@ pub async fn result(State(st): State<AppState>, Path(id): Path<String>, Query(q)
             }
             if job_finished {
                 let st2 = st.clone();
-                tokio::task::spawn_blocking(move || st2.finalize(&job_id)).await.map_err(AppError::internal)?;
+                tokio::task::spawn_blocking(move || st2.finalize(&job_id))
+                    .await
+                    .map_err(AppError::internal)?;
             }
             Ok(match next {
                 Ok(g) => {
@@ -239,7 +294,10 @@ fn prepare_report(headers: &HeaderMap) -> Option<(PrepareKind, f64)> {
         "refit" => PrepareKind::Refit,
         _ => return None,
     };
-    let ms = headers.get("x-tessera-prepare-ms").and_then(|v| v.to_str().ok()?.parse::<f64>().ok()).filter(|m| m.is_finite() && *m >= 0.0);
+    let ms = headers
+        .get("x-tessera-prepare-ms")
+        .and_then(|v| v.to_str().ok()?.parse::<f64>().ok())
+        .filter(|m| m.is_finite() && *m >= 0.0);
     Some((kind, ms.unwrap_or(0.0)))
 }
 
@@ -248,5 +306,8 @@ fn prepare_report(headers: &HeaderMap) -> Option<(PrepareKind, f64)> {
 /// are there and readable.
 fn memory_report(headers: &HeaderMap) -> Option<ProcessMemory> {
     let bytes = |name: &str| headers.get(name)?.to_str().ok()?.parse::<u64>().ok();
-    Some(ProcessMemory { rss_bytes: bytes("x-tessera-rss")?, peak_rss_bytes: bytes("x-tessera-peak-rss")? })
+    Some(ProcessMemory {
+        rss_bytes: bytes("x-tessera-rss")?,
+        peak_rss_bytes: bytes("x-tessera-peak-rss")?,
+    })
 }

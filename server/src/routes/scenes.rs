@@ -11,11 +11,25 @@ use tessera_proto::{Problem, SceneListing, SceneUploaded};
 /// Upload a `.glb` (`model/gltf-binary`) or self-contained `.gltf` (`model/gltf+json`).
 #[utoipa::path(post, path = "/v1/scenes", tag = "scenes", request_body(content = Vec<u8>, content_type = "model/gltf-binary"),
     responses((status = 201, body = SceneUploaded), (status = 413, body = Problem), (status = 415, body = Problem), (status = 422, body = Problem)))]
-pub async fn upload(State(st): State<AppState>, headers: HeaderMap, body: Bytes) -> Result<impl IntoResponse, AppError> {
+pub async fn upload(
+    State(st): State<AppState>,
+    headers: HeaderMap,
+    body: Bytes,
+) -> Result<impl IntoResponse, AppError> {
     let ct = headers.get(header::CONTENT_TYPE).and_then(|v| v.to_str().ok()).unwrap_or("");
     let ct = ct.split(';').next().unwrap_or("").trim();
-    if !matches!(ct, "model/gltf-binary" | "model/gltf+json" | "application/octet-stream" | "application/json" | "") {
-        return Err(AppError::new(StatusCode::UNSUPPORTED_MEDIA_TYPE, format!("content type {ct:?} is not model/gltf-binary or model/gltf+json")));
+    if !matches!(
+        ct,
+        "model/gltf-binary"
+            | "model/gltf+json"
+            | "application/octet-stream"
+            | "application/json"
+            | ""
+    ) {
+        return Err(AppError::new(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            format!("content type {ct:?} is not model/gltf-binary or model/gltf+json"),
+        ));
     }
     let st2 = st.clone();
     let meta = tokio::task::spawn_blocking(move || st2.scenes.put(&body))
@@ -30,26 +44,50 @@ pub async fn upload(State(st): State<AppState>, headers: HeaderMap, body: Bytes)
 #[utoipa::path(get, path = "/v1/scenes", tag = "scenes", responses((status = 200, body = Vec<SceneListing>)))]
 pub async fn list(State(st): State<AppState>) -> axum::Json<Vec<SceneListing>> {
     let all = st.scenes.list().into_iter();
-    axum::Json(all.map(|(name, m)| SceneListing { id: m.id, name, triangles: m.triangles, effects: m.effects, cameras: m.cameras, animations: m.animations }).collect())
+    axum::Json(
+        all.map(|(name, m)| SceneListing {
+            id: m.id,
+            name,
+            triangles: m.triangles,
+            effects: m.effects,
+            cameras: m.cameras,
+            animations: m.animations,
+        })
+        .collect(),
+    )
 }
 
 /// A stored scene's description (by id or bundled name).
 #[utoipa::path(get, path = "/v1/scenes/{id}", tag = "scenes", params(("id" = String, Path)),
     responses((status = 200, body = SceneUploaded), (status = 404, body = Problem)))]
-pub async fn describe(State(st): State<AppState>, Path(id): Path<String>) -> Result<axum::Json<SceneUploaded>, AppError> {
-    let m = st.scenes.resolve(&id).ok_or_else(|| AppError::not_found(format!("no scene {id:?}")))?;
+pub async fn describe(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<axum::Json<SceneUploaded>, AppError> {
+    let m =
+        st.scenes.resolve(&id).ok_or_else(|| AppError::not_found(format!("no scene {id:?}")))?;
     Ok(axum::Json(described(m)))
 }
 
 /// The scene's bytes, for workers.
 #[utoipa::path(get, path = "/v1/scenes/{id}/data", tag = "workers", params(("id" = String, Path)),
     responses((status = 200, content_type = "model/gltf-binary"), (status = 404, body = Problem)))]
-pub async fn data(State(st): State<AppState>, Path(id): Path<String>) -> Result<impl IntoResponse, AppError> {
-    let bytes = st.scenes.bytes(&id).ok_or_else(|| AppError::not_found(format!("no scene {id:?}")))?;
+pub async fn data(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<impl IntoResponse, AppError> {
+    let bytes =
+        st.scenes.bytes(&id).ok_or_else(|| AppError::not_found(format!("no scene {id:?}")))?;
     Ok(([(header::CONTENT_TYPE, "application/octet-stream")], bytes))
 }
 
 /// A stored scene as the API describes it.
 fn described(m: SceneMeta) -> SceneUploaded {
-    SceneUploaded { id: m.id, triangles: m.triangles, effects: m.effects, cameras: m.cameras, animations: m.animations }
+    SceneUploaded {
+        id: m.id,
+        triangles: m.triangles,
+        effects: m.effects,
+        cameras: m.cameras,
+        animations: m.animations,
+    }
 }

@@ -75,7 +75,13 @@ impl Api {
         res.into_body().into_data_stream()
     }
 
-    pub async fn request(&self, method: Method, uri: &str, content_type: Option<&str>, body: impl Into<Body>) -> Resp {
+    pub async fn request(
+        &self,
+        method: Method,
+        uri: &str,
+        content_type: Option<&str>,
+        body: impl Into<Body>,
+    ) -> Resp {
         let mut req = Request::builder().method(method).uri(uri);
         if let Some(ct) = content_type {
             req = req.header(header::CONTENT_TYPE, ct);
@@ -92,7 +98,13 @@ impl Api {
     }
 
     pub async fn post_json(&self, uri: &str, v: &Value) -> Resp {
-        self.request(Method::POST, uri, Some("application/json"), serde_json::to_vec(v).expect("json")).await
+        self.request(
+            Method::POST,
+            uri,
+            Some("application/json"),
+            serde_json::to_vec(v).expect("json"),
+        )
+        .await
     }
 
     /// Submits a job and returns its JSON (asserting 202).
@@ -145,7 +157,8 @@ impl Resp {
     }
 
     pub fn json(&self) -> Value {
-        serde_json::from_slice(&self.body).unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(&self.body)))
+        serde_json::from_slice(&self.body)
+            .unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(&self.body)))
     }
 
     #[track_caller]
@@ -157,7 +170,12 @@ impl Resp {
     #[track_caller]
     pub fn problem(&self, status: StatusCode) -> Problem {
         self.expect(status);
-        assert_eq!(self.content_type(), "application/problem+json", "body: {}", String::from_utf8_lossy(&self.body));
+        assert_eq!(
+            self.content_type(),
+            "application/problem+json",
+            "body: {}",
+            String::from_utf8_lossy(&self.body)
+        );
         let p: Problem = serde_json::from_slice(&self.body).expect("problem body");
         assert_eq!(p.status, status.as_u16());
         assert_eq!(p.title, status.canonical_reason().unwrap());
@@ -187,7 +205,8 @@ pub(super) fn tiled_job() -> Value {
 }
 
 pub(super) fn cornell_bytes() -> Vec<u8> {
-    std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cornell-box.gltf")).expect("bundled scene")
+    std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cornell-box.gltf"))
+        .expect("bundled scene")
 }
 
 pub(super) fn sha256_hex(bytes: &[u8]) -> String {
@@ -220,12 +239,24 @@ pub(super) async fn next_lease(api: &Api, worker: &str) -> Option<Lease> {
 /// Sums for the lease where every sample has radiance `v` in every channel.
 pub(super) fn sums_for(l: &Lease, v: f64) -> PartialSums {
     let n = l.samples[1] - l.samples[0];
-    let p = WirePixel { sum: [v * n as f64; 3], sum_sq: [v * v * n as f64; 3], sum_lum_sq: v * v * n as f64, count: n as u64 };
-    PartialSums { tile: l.tile, samples: l.samples, dropped: 0, max_weight: v, pixels: vec![p; l.tile.pixel_count()] }
+    let p = WirePixel {
+        sum: [v * n as f64; 3],
+        sum_sq: [v * v * n as f64; 3],
+        sum_lum_sq: v * v * n as f64,
+        count: n as u64,
+    };
+    PartialSums {
+        tile: l.tile,
+        samples: l.samples,
+        dropped: 0,
+        max_weight: v,
+        pixels: vec![p; l.tile.pixel_count()],
+    }
 }
 
 pub(super) async fn put_result(api: &Api, lease_id: &str, body: Vec<u8>) -> Resp {
-    api.request(Method::PUT, &format!("/v1/leases/{lease_id}/result"), Some(CONTENT_TYPE), body).await
+    api.request(Method::PUT, &format!("/v1/leases/{lease_id}/result"), Some(CONTENT_TYPE), body)
+        .await
 }
 
 pub(super) async fn samples_done(api: &Api, job: &str) -> f64 {

@@ -4,9 +4,9 @@ use crate::scenes::SceneMeta;
 use crate::scheduler::JobConfig;
 use tessera_proto::job::DEFAULT_FPS;
 use tessera_proto::{FrameRange, JobRequest, RenderParams};
-use tessera_render::tracer::{Estimator, LightSampler};
 use tessera_render::tracer::integrator::DEFAULT_ROULETTE_DEPTH;
 use tessera_render::tracer::sampler::SamplerKind;
+use tessera_render::tracer::{Estimator, LightSampler};
 
 pub const MAX_SIDE: u32 = 16384;
 /// 16 Mpixel: the coordinator keeps 64 bytes of f64 sums per pixel (1 GiB at this size).
@@ -27,49 +27,85 @@ pub const MAX_JOB_PIXELS: u64 = 1 << 26;
 pub const MAX_JOB_TILES: u64 = 1 << 17;
 pub const MAX_FPS: f64 = 1000.0;
 
-pub fn job_config(id: String, req: JobRequest, scene: &SceneMeta, created_unix_ms: u64) -> Result<JobConfig, AppError> {
+pub fn job_config(
+    id: String,
+    req: JobRequest,
+    scene: &SceneMeta,
+    created_unix_ms: u64,
+) -> Result<JobConfig, AppError> {
     let in_range = |field: &str, v: u32, lo: u32, hi: u32| {
-        if v < lo || v > hi { Err(AppError::field(field, format!("{field} must be in {lo}..={hi} (got {v})"))) } else { Ok(v) }
+        if v < lo || v > hi {
+            Err(AppError::field(field, format!("{field} must be in {lo}..={hi} (got {v})")))
+        } else {
+            Ok(v)
+        }
     };
     let width = in_range("width", req.width, 1, MAX_SIDE)?;
     let height = in_range("height", req.height, 1, MAX_SIDE)?;
     if width as u64 * height as u64 > MAX_PIXELS {
-        return Err(AppError::field("width", format!("width × height must be at most {MAX_PIXELS} pixels")));
+        return Err(AppError::field(
+            "width",
+            format!("width × height must be at most {MAX_PIXELS} pixels"),
+        ));
     }
     if req.spp.is_none() && req.noise_target.is_none() && req.time_limit_s.is_none() {
-        return Err(AppError::field("spp", "give at least one stop condition: spp, noise_target or time_limit_s"));
+        return Err(AppError::field(
+            "spp",
+            "give at least one stop condition: spp, noise_target or time_limit_s",
+        ));
     }
     let spp = match req.spp {
         Some(s) => in_range("spp", s, 1, MAX_SPP)?,
         None => OPEN_ENDED_SPP,
     };
     if let Some(n) = req.noise_target
-        && !(n.is_finite() && n > 0.0) {
-            return Err(AppError::field("noise_target", "noise_target must be a finite number > 0"));
-        }
+        && !(n.is_finite() && n > 0.0)
+    {
+        return Err(AppError::field("noise_target", "noise_target must be a finite number > 0"));
+    }
     let time_limit_ms = match req.time_limit_s {
         Some(t) if t.is_finite() && t > 0.0 && t <= 1e7 => Some((t * 1000.0).ceil() as u64),
-        Some(_) => return Err(AppError::field("time_limit_s", "time_limit_s must be in (0, 1e7] seconds")),
+        Some(_) => {
+            return Err(AppError::field("time_limit_s", "time_limit_s must be in (0, 1e7] seconds"));
+        }
         None => None,
     };
-    let estimator: Estimator = req.estimator.as_deref().unwrap_or("mis").parse().map_err(|e: String| AppError::field("estimator", e))?;
-    let sampler: SamplerKind =
-        req.sampler.as_deref().unwrap_or("sobol").parse().map_err(|e: tessera_render::tracer::sampler::UnknownSamplerKind| AppError::field("sampler", e.to_string()))?;
+    let estimator: Estimator = req
+        .estimator
+        .as_deref()
+        .unwrap_or("mis")
+        .parse()
+        .map_err(|e: String| AppError::field("estimator", e))?;
+    let sampler: SamplerKind = req.sampler.as_deref().unwrap_or("sobol").parse().map_err(
+        |e: tessera_render::tracer::sampler::UnknownSamplerKind| {
+            AppError::field("sampler", e.to_string())
+        },
+    )?;
     let tile_size = in_range("tile_size", req.tile_size.unwrap_or(64), 8, 1024)?;
     let tiles = width.div_ceil(tile_size) as u64 * height.div_ceil(tile_size) as u64;
-    let (frames, fps) = frames(req.frames.as_ref(), width as u64 * height as u64, tiles, time_limit_ms.is_some())?;
+    let (frames, fps) =
+        frames(req.frames.as_ref(), width as u64 * height as u64, tiles, time_limit_ms.is_some())?;
     check_animation(req.animation.as_deref(), &frames, scene)?;
     let batch_spp = in_range("batch_spp", req.batch_spp.unwrap_or(16), 1, 4096)?;
     let max_depth = in_range("max_depth", req.max_depth.unwrap_or(1024), 1, 65536)?;
-    let roulette_depth = in_range("roulette_depth", req.roulette_depth.unwrap_or(DEFAULT_ROULETTE_DEPTH), 0, 65536)?;
-    let light_sampler: LightSampler = req.light_sampler.as_deref().unwrap_or(LightSampler::Auto.name()).parse().map_err(|e: String| AppError::field("light_sampler", e))?;
+    let roulette_depth =
+        in_range("roulette_depth", req.roulette_depth.unwrap_or(DEFAULT_ROULETTE_DEPTH), 0, 65536)?;
+    let light_sampler: LightSampler = req
+        .light_sampler
+        .as_deref()
+        .unwrap_or(LightSampler::Auto.name())
+        .parse()
+        .map_err(|e: String| AppError::field("light_sampler", e))?;
     let background = req.background.unwrap_or([0.0; 3]);
     if background.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
         return Err(AppError::field("background", "background must be three finite numbers ≥ 0"));
     }
     if let Some(cam) = &req.camera {
         if !scene.cameras.contains(cam) {
-            return Err(AppError::field("camera", format!("no camera named {cam:?} (the scene has {:?})", scene.cameras)));
+            return Err(AppError::field(
+                "camera",
+                format!("no camera named {cam:?} (the scene has {:?})", scene.cameras),
+            ));
         }
     } else if scene.cameras.is_empty() {
         return Err(AppError::field("camera", "the scene has no perspective camera"));
@@ -130,18 +166,29 @@ fn settled(sampler: LightSampler, scene_effects: &[String]) -> LightSampler {
 }
 
 /// The frame numbers of a `frames` range, and its fps. `pixels` and `tiles` are per frame.
-fn frames(range: Option<&FrameRange>, pixels: u64, tiles: u64, time_limited: bool) -> Result<(Vec<u32>, f64), AppError> {
+fn frames(
+    range: Option<&FrameRange>,
+    pixels: u64,
+    tiles: u64,
+    time_limited: bool,
+) -> Result<(Vec<u32>, f64), AppError> {
     let Some(r) = range else { return Ok((vec![0], DEFAULT_FPS)) };
     let step = r.step.unwrap_or(1);
     if r.start > r.end {
-        return Err(AppError::field("frames", format!("frames.start ({}) must be ≤ frames.end ({})", r.start, r.end)));
+        return Err(AppError::field(
+            "frames",
+            format!("frames.start ({}) must be ≤ frames.end ({})", r.start, r.end),
+        ));
     }
     if step == 0 {
         return Err(AppError::field("frames", "frames.step must be ≥ 1"));
     }
     let fps = r.fps.unwrap_or(DEFAULT_FPS);
     if !(fps.is_finite() && fps > 0.0 && fps <= MAX_FPS) {
-        return Err(AppError::field("frames", format!("frames.fps must be in (0, {MAX_FPS}] (got {fps})")));
+        return Err(AppError::field(
+            "frames",
+            format!("frames.fps must be in (0, {MAX_FPS}] (got {fps})"),
+        ));
     }
     let count = (r.end - r.start) as u64 / step as u64 + 1;
     if time_limited && count * pixels > MAX_JOB_PIXELS {
@@ -156,25 +203,45 @@ fn frames(range: Option<&FrameRange>, pixels: u64, tiles: u64, time_limited: boo
     if count * tiles > MAX_JOB_TILES {
         return Err(AppError::field(
             "frames",
-            format!("{count} frames of {tiles} tiles exceed {MAX_JOB_TILES} tiles per job: split the range into several jobs, or use larger tiles"),
+            format!(
+                "{count} frames of {tiles} tiles exceed {MAX_JOB_TILES} tiles per job: split the range into several jobs, or use larger tiles"
+            ),
         ));
     }
     Ok(((r.start..=r.end).step_by(step as usize).collect(), fps))
 }
 
 /// The animation a job names must exist (by name, else by index); several frames need one.
-fn check_animation(selector: Option<&str>, frames: &[u32], scene: &SceneMeta) -> Result<(), AppError> {
+fn check_animation(
+    selector: Option<&str>,
+    frames: &[u32],
+    scene: &SceneMeta,
+) -> Result<(), AppError> {
     let anims = &scene.animations;
-    let has = |s: &str| anims.iter().any(|a| a.name.as_deref() == Some(s)) || s.parse::<usize>().is_ok_and(|i| i < anims.len());
+    let has = |s: &str| {
+        anims.iter().any(|a| a.name.as_deref() == Some(s))
+            || s.parse::<usize>().is_ok_and(|i| i < anims.len())
+    };
     if let Some(s) = selector
         && !has(s)
     {
-        let list: Vec<String> = anims.iter().enumerate().map(|(i, a)| a.name.clone().unwrap_or_else(|| format!("{i} (unnamed)"))).collect();
-        let have = if list.is_empty() { "the scene has no animations".to_string() } else { format!("the scene has: {}", list.join(", ")) };
+        let list: Vec<String> = anims
+            .iter()
+            .enumerate()
+            .map(|(i, a)| a.name.clone().unwrap_or_else(|| format!("{i} (unnamed)")))
+            .collect();
+        let have = if list.is_empty() {
+            "the scene has no animations".to_string()
+        } else {
+            format!("the scene has: {}", list.join(", "))
+        };
         return Err(AppError::field("animation", format!("no animation {s:?} ({have})")));
     }
     if frames.len() > 1 && anims.is_empty() {
-        return Err(AppError::field("frames", "the scene has no animation: every frame would show the same pose (render one frame)"));
+        return Err(AppError::field(
+            "frames",
+            "the scene has no animation: every frame would show the same pose (render one frame)",
+        ));
     }
     Ok(())
 }

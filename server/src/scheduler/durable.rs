@@ -5,9 +5,9 @@
 //! in batch order and f64 sums are stored bit for bit, resuming from a checkpoint and merging
 //! batches upto.. gives the same bits as never stopping. Buffered out-of-order batches and units
 //! in flight are not saved: they are issued again.
+use super::Scheduler;
 use super::history::History;
 use super::job::{JobConfig, JobRun};
-use super::Scheduler;
 use serde::{Deserialize, Serialize};
 use tessera_proto::JobState;
 use tessera_render::tracer::PixelSums;
@@ -95,7 +95,15 @@ impl JobRun {
             elapsed_ms: self.elapsed_ms(now),
             history: self.history.rows.clone(),
             message: self.message.clone(),
-            tiles: self.tiles.iter().map(|t| TileMark { upto: t.merged_upto, stop_at: t.stop_at, released: t.summary() }).collect(),
+            tiles: self
+                .tiles
+                .iter()
+                .map(|t| TileMark {
+                    upto: t.merged_upto,
+                    stop_at: t.stop_at,
+                    released: t.summary(),
+                })
+                .collect(),
             contributions: self.contributions.clone(),
             renderers: self.renderers.clone(),
             ended_unix_ms: self.ended_unix_ms,
@@ -131,7 +139,11 @@ impl JobRun {
 impl Scheduler {
     /// Every job changed since its last checkpoint, with the tiles whose sums moved on.
     pub fn checkpoint(&self, now: u64) -> Vec<JobCheckpoint> {
-        self.jobs.values().filter(|j| j.revision != j.persisted_revision).map(|j| j.checkpoint(now)).collect()
+        self.jobs
+            .values()
+            .filter(|j| j.revision != j.persisted_revision)
+            .map(|j| j.checkpoint(now))
+            .collect()
     }
 
     /// The record of one job (e.g. to store a new job before accepting it).
@@ -141,7 +153,13 @@ impl Scheduler {
 
     /// Notes that a checkpoint is on disk, and that the files of the released tiles it names
     /// are gone.
-    pub fn mark_persisted(&mut self, seq: u64, revision: u64, tiles: &[(u32, u32)], released_files: &[(u32, u32)]) {
+    pub fn mark_persisted(
+        &mut self,
+        seq: u64,
+        revision: u64,
+        tiles: &[(u32, u32)],
+        released_files: &[(u32, u32)],
+    ) {
         let Some(job) = self.jobs.get_mut(&seq) else { return };
         job.persisted_revision = job.persisted_revision.max(revision);
         for &(tile, upto) in tiles {
@@ -155,7 +173,12 @@ impl Scheduler {
 
     /// Puts a stored job back. `read(tile, mark, pixels)` gives a tile's checkpoint, or None
     /// where it is unusable: that tile starts over (deterministically, so the image is unchanged).
-    pub fn restore(&mut self, rec: JobRecord, now: u64, mut read: impl FnMut(u32, TileMark, usize) -> Option<RestoredTile>) -> JobState {
+    pub fn restore(
+        &mut self,
+        rec: JobRecord,
+        now: u64,
+        mut read: impl FnMut(u32, TileMark, usize) -> Option<RestoredTile>,
+    ) -> JobState {
         let mut job = JobRun::new(rec.cfg, rec.seq);
         let (batch_spp, spp) = (job.cfg.batch_spp, job.cfg.spp);
         for (i, (t, mark)) in job.tiles.iter_mut().zip(&rec.tiles).enumerate() {
@@ -188,7 +211,9 @@ impl Scheduler {
             // A checkpoint file went missing: render those tiles again rather than lie.
             job.state = JobState::Running;
             (job.started_ms, job.finished_ms) = (Some(now), None);
-            job.message = Some("resumed: some checkpointed tiles were unreadable and are rendered again".into());
+            job.message = Some(
+                "resumed: some checkpointed tiles were unreadable and are rendered again".into(),
+            );
         }
         job.persisted_revision = job.revision;
         self.next_seq = self.next_seq.max(rec.seq);

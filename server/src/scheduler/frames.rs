@@ -92,7 +92,9 @@ impl JobRun {
         if self.cfg.time_limit_ms.is_some() {
             return self.next_unit_batch_major(affinity);
         }
-        if let Some((b, t)) = affinity.and_then(|a| a.last).and_then(|last| self.next_in(self.frame_tiles(last))) {
+        if let Some((b, t)) =
+            affinity.and_then(|a| a.last).and_then(|last| self.next_in(self.frame_tiles(last)))
+        {
             return Some((t, b));
         }
         let busy = |f: usize| affinity.map_or(0, |a| a.busy.get(f).copied().unwrap_or(0));
@@ -117,9 +119,13 @@ impl JobRun {
             .collect();
         let lowest_batch = candidates.iter().map(|(_, (b, _))| *b).min()?;
         let Some(aff) = affinity else {
-            return candidates.iter().min_by_key(|(f, (b, _))| (*b, *f)).map(|(_, (b, t))| (*t, *b));
+            return candidates
+                .iter()
+                .min_by_key(|(f, (b, _))| (*b, *f))
+                .map(|(_, (b, t))| (*t, *b));
         };
-        if let Some(&(_, (b, t))) = aff.last.and_then(|last| candidates.iter().find(|(f, _)| *f == last))
+        if let Some(&(_, (b, t))) =
+            aff.last.and_then(|last| candidates.iter().find(|(f, _)| *f == last))
             && b <= lowest_batch
         {
             return Some((t, b));
@@ -130,7 +136,8 @@ impl JobRun {
 
     /// Mean samples per pixel merged in frame index `index`.
     pub fn frame_samples_done(&self, index: usize) -> f64 {
-        self.tiles[self.frame_tiles(index)].iter().map(|t| t.merged_samples).sum::<u64>() as f64 / self.pixel_count() as f64
+        self.tiles[self.frame_tiles(index)].iter().map(|t| t.merged_samples).sum::<u64>() as f64
+            / self.pixel_count() as f64
     }
 
     /// Non-finite samples dropped in a frame's merged batches.

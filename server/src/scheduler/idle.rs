@@ -54,12 +54,25 @@ impl fmt::Display for IdleReason {
             _ => v.join(", "),
         };
         if !self.pinned.is_empty() {
-            let renderers: Vec<String> = self.renderers.iter().map(|r| if r.is_empty() { "(unnamed)".to_owned() } else { r.clone() }).collect();
-            write!(f, "jobs {} are kept on renderer {} while a worker of it is live", list(&self.pinned), renderers.join(" / "))?;
+            let renderers: Vec<String> = self
+                .renderers
+                .iter()
+                .map(|r| if r.is_empty() { "(unnamed)".to_owned() } else { r.clone() })
+                .collect();
+            write!(
+                f,
+                "jobs {} are kept on renderer {} while a worker of it is live",
+                list(&self.pinned),
+                renderers.join(" / ")
+            )?;
         }
         if !self.blocklisted.is_empty() {
             let sep = if self.pinned.is_empty() { "" } else { "; " };
-            write!(f, "{sep}jobs {} keep this worker off after its failures", list(&self.blocklisted))?;
+            write!(
+                f,
+                "{sep}jobs {} keep this worker off after its failures",
+                list(&self.blocklisted)
+            )?;
         }
         Ok(())
     }

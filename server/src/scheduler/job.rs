@@ -108,7 +108,8 @@ impl JobRun {
             }
         }
         let frames = cfg.frames.len().max(1);
-        let tiles = (0..frames).flat_map(|_| rects.iter().map(|&r| TileRun::new(r, batches))).collect();
+        let tiles =
+            (0..frames).flat_map(|_| rects.iter().map(|&r| TileRun::new(r, batches))).collect();
         JobRun {
             cfg,
             seq,
@@ -159,7 +160,10 @@ impl JobRun {
 
     /// Counts a failed unit against a worker; true when it has now failed `limit` times.
     pub fn count_failure(&mut self, worker: &str, name: &str, limit: u32) -> bool {
-        let f = self.failures.entry(worker.to_string()).or_insert_with(|| Failures { name: name.to_string(), count: 0 });
+        let f = self
+            .failures
+            .entry(worker.to_string())
+            .or_insert_with(|| Failures { name: name.to_string(), count: 0 });
         f.count += 1;
         f.count == limit
     }
@@ -169,10 +173,20 @@ impl JobRun {
     }
 
     /// Buffers a batch's sums and merges every batch now contiguous. Returns batches merged.
-    pub fn accept(&mut self, tile: usize, batch: u32, sums: PartialSums, by: Contributor, now: u64) -> u32 {
+    pub fn accept(
+        &mut self,
+        tile: usize,
+        batch: u32,
+        sums: PartialSums,
+        by: Contributor,
+        now: u64,
+    ) -> u32 {
         self.pending_by.insert((tile, batch), by);
         let first = self.tiles[tile].merged_upto;
-        let stop = self.cfg.noise_target.map(|target| NoiseStop { target, min_spp: MIN_SPP_FOR_NOISE_STOP.min(self.cfg.spp) });
+        let stop = self
+            .cfg
+            .noise_target
+            .map(|target| NoiseStop { target, min_spp: MIN_SPP_FOR_NOISE_STOP.min(self.cfg.spp) });
         let merged = self.tiles[tile].accept(batch, sums, stop);
         for b in first..first + merged {
             let [s0, s1] = self.samples_of(b);
@@ -305,7 +319,8 @@ impl JobRun {
 
     /// Mean samples per pixel merged, over all frames.
     pub fn samples_done(&self) -> f64 {
-        self.tiles.iter().map(|t| t.merged_samples).sum::<u64>() as f64 / (self.pixel_count() * self.frame_count() as u64) as f64
+        self.tiles.iter().map(|t| t.merged_samples).sum::<u64>() as f64
+            / (self.pixel_count() * self.frame_count() as u64) as f64
     }
 
     /// Non-finite samples dropped in the merged batches.
@@ -334,7 +349,8 @@ impl JobRun {
 
     /// Whether a time limit has run out.
     pub fn out_of_time(&self, now: u64) -> bool {
-        self.started_ms.is_some() && self.cfg.time_limit_ms.is_some_and(|l| self.elapsed_ms(now) >= l)
+        self.started_ms.is_some()
+            && self.cfg.time_limit_ms.is_some_and(|l| self.elapsed_ms(now) >= l)
     }
 
     /// One frame's merged sums (by frame index), for tests (output reads the tiles directly).
@@ -348,7 +364,8 @@ impl JobRun {
             }
             for y in 0..t.rect.h as usize {
                 for x in 0..t.rect.w as usize {
-                    frame[(t.rect.y0 as usize + y) * w + t.rect.x0 as usize + x] = t.merged[y * t.rect.w as usize + x];
+                    frame[(t.rect.y0 as usize + y) * w + t.rect.x0 as usize + x] =
+                        t.merged[y * t.rect.w as usize + x];
                 }
             }
         }

@@ -1,7 +1,7 @@
 //! A lease's life: issued to a worker, kept alive by heartbeats, completed with a result,
 //! released, expired by `tick`, or revoked when its job no longer wants the unit.
-use super::frames::{self, PrepareKind};
 use super::ProcessMemory;
+use super::frames::{self, PrepareKind};
 use super::job::{Contributor, JobRun};
 use super::renderers::{Admission, RendererGate};
 use super::{Accepted, ResultError, Scheduler};
@@ -54,7 +54,13 @@ impl Scheduler {
             })
             // Reverse, not negation: −i32::MIN overflows (a panic in debug builds, the lowest
             // priority first in release ones).
-            .min_by_key(|(j, _, _)| (std::cmp::Reverse(j.cfg.priority), in_flight.get(&j.seq).copied().unwrap_or(0), j.seq))
+            .min_by_key(|(j, _, _)| {
+                (
+                    std::cmp::Reverse(j.cfg.priority),
+                    in_flight.get(&j.seq).copied().unwrap_or(0),
+                    j.seq,
+                )
+            })
             .map(|(j, (tile, batch), admission)| (j.seq, tile, batch, admission));
         drop(gate);
         let Some((seq, tile, batch, admission)) = pick else { return Ok(None) };
@@ -68,7 +74,14 @@ impl Scheduler {
         self.next_lease += 1;
         let lease_id = format!("l{}-{}-{}", self.epoch, self.next_lease, seq);
         let deadline = now + self.lease_timeout_ms;
-        let rec = LeaseRec { number: self.next_lease, job_seq: seq, tile, batch, worker: worker.to_string(), deadline };
+        let rec = LeaseRec {
+            number: self.next_lease,
+            job_seq: seq,
+            tile,
+            batch,
+            worker: worker.to_string(),
+            deadline,
+        };
         self.leases.insert(lease_id.clone(), rec);
         if let Some(w) = self.workers.get_mut(worker) {
             w.last_frame = Some((seq, frame_index));
@@ -89,7 +102,12 @@ impl Scheduler {
 
     /// Whether `worker` may take units of `job` (which has units left), or what keeps it off:
     /// the one rule both [`Scheduler::lease`] and [`Scheduler::idle_reason`] apply.
-    pub(super) fn admission(&self, job: &JobRun, worker: &str, gate: &RendererGate) -> Result<Admission, Refusal> {
+    pub(super) fn admission(
+        &self,
+        job: &JobRun,
+        worker: &str,
+        gate: &RendererGate,
+    ) -> Result<Admission, Refusal> {
         if job.state == JobState::Paused {
             return Err(Refusal::Paused);
         }
@@ -129,7 +147,8 @@ impl Scheduler {
     /// worker's latest figures, and the peak for the unit's frame.
     pub fn note_memory(&mut self, lease_id: &str, memory: ProcessMemory) {
         let Some(l) = self.leases.get(lease_id) else { return };
-        let memory = ProcessMemory { peak_rss_bytes: memory.peak_rss_bytes.max(memory.rss_bytes), ..memory };
+        let memory =
+            ProcessMemory { peak_rss_bytes: memory.peak_rss_bytes.max(memory.rss_bytes), ..memory };
         if let Some(w) = self.workers.get_mut(&l.worker) {
             w.memory = Some(memory);
         }
@@ -163,16 +182,31 @@ impl Scheduler {
         }
     }
 
-    pub fn complete(&mut self, lease_id: &str, sums: PartialSums, now: u64) -> Result<Accepted, ResultError> {
+    pub fn complete(
+        &mut self,
+        lease_id: &str,
+        sums: PartialSums,
+        now: u64,
+    ) -> Result<Accepted, ResultError> {
         self.tick(now);
-        let l = self.leases.remove(lease_id).ok_or_else(|| ResultError::Stale(format!("lease {lease_id} is not active (expired, revoked or already completed)")))?;
+        let l = self.leases.remove(lease_id).ok_or_else(|| {
+            ResultError::Stale(format!(
+                "lease {lease_id} is not active (expired, revoked or already completed)"
+            ))
+        })?;
         let job = self.jobs.get(&l.job_seq).expect("leases refer to live jobs");
         let want_rect = job.tiles[l.tile].rect;
         let want_samples = job.samples_of(l.batch);
         let problem = if sums.tile != want_rect {
-            Some(format!("result is for tile {:?} but lease {lease_id} is for {:?}", sums.tile, want_rect))
+            Some(format!(
+                "result is for tile {:?} but lease {lease_id} is for {:?}",
+                sums.tile, want_rect
+            ))
         } else if sums.samples != want_samples {
-            Some(format!("result covers samples {:?} but lease {lease_id} is for {:?}", sums.samples, want_samples))
+            Some(format!(
+                "result covers samples {:?} but lease {lease_id} is for {:?}",
+                sums.samples, want_samples
+            ))
         } else {
             None
         };
@@ -194,14 +228,25 @@ impl Scheduler {
         }
         let job_id = job.cfg.id.clone();
         if !job.wants(l.tile, l.batch) {
-            return Ok(Accepted { job_id, worker: l.worker, merged: false, job_finished: false, frame_completed: None });
+            return Ok(Accepted {
+                job_id,
+                worker: l.worker,
+                merged: false,
+                job_finished: false,
+                frame_completed: None,
+            });
         }
-        let (name, renderer) = self.workers.get(&l.worker).map(|w| (w.name.clone(), w.renderer.clone())).unwrap_or_default();
+        let (name, renderer) = self
+            .workers
+            .get(&l.worker)
+            .map(|w| (w.name.clone(), w.renderer.clone()))
+            .unwrap_or_default();
         let by = Contributor { id: l.worker.clone(), name, renderer };
         let merged_batches = job.accept(l.tile, l.batch, sums, by, now);
         let job_finished = job.state.is_final();
         let frame = job.frame_index_of(l.tile);
-        let frame_completed = (merged_batches > 0 && !job_finished && job.frame_complete(frame)).then_some(frame);
+        let frame_completed =
+            (merged_batches > 0 && !job_finished && job.frame_complete(frame)).then_some(frame);
         self.revoke_unwanted(l.job_seq);
         Ok(Accepted { job_id, worker: l.worker, merged: true, job_finished, frame_completed })
     }
@@ -209,7 +254,8 @@ impl Scheduler {
     /// Expires overdue leases and ends jobs whose time limit ran out. Returns the ids of jobs
     /// that finished here.
     pub fn tick(&mut self, now: u64) -> Vec<String> {
-        let expired: Vec<String> = self.leases.iter().filter(|(_, l)| l.deadline <= now).map(|(k, _)| k.clone()).collect();
+        let expired: Vec<String> =
+            self.leases.iter().filter(|(_, l)| l.deadline <= now).map(|(k, _)| k.clone()).collect();
         for id in expired {
             let l = self.leases.remove(&id).expect("listed");
             self.refresh_current(&l.worker);
@@ -270,7 +316,9 @@ impl Scheduler {
     /// Sets a worker's `current` to its oldest lease's unit (None without leases).
     fn refresh_current(&mut self, worker: &str) {
         let oldest = self.leases.values().filter(|l| l.worker == worker).min_by_key(|l| l.number);
-        let current = oldest.and_then(|l| self.jobs.get(&l.job_seq).map(|j| format!("{}/{}/{}", j.cfg.id, l.tile, l.batch)));
+        let current = oldest.and_then(|l| {
+            self.jobs.get(&l.job_seq).map(|j| format!("{}/{}/{}", j.cfg.id, l.tile, l.batch))
+        });
         if let Some(w) = self.workers.get_mut(worker) {
             w.current = current;
         }

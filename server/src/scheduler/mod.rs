@@ -32,14 +32,14 @@ mod tile;
 
 pub use durable::{JobCheckpoint, JobRecord, ReleasedTile, RestoredTile, TileCheckpoint, TileMark};
 pub use frames::{FramePrepare, PrepareKind};
-/// A worker's resident memory, as it reports with a result (read by `tessera_worker::memory`).
-pub use tessera_worker::memory::ProcessMemory;
 pub use idle::IdleReason;
-pub use job::{Failures, JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP, Contributor};
-pub use tile::TileRun;
+pub use job::{Contributor, Failures, JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP};
 use leases::LeaseRec;
 use std::collections::{BTreeMap, HashMap};
 use tessera_proto::JobState;
+/// A worker's resident memory, as it reports with a result (read by `tessera_worker::memory`).
+pub use tessera_worker::memory::ProcessMemory;
+pub use tile::TileRun;
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum ResultError {
@@ -139,7 +139,18 @@ impl Scheduler {
     pub fn register(&mut self, name: &str, threads: u32, renderer: &str, now: u64) -> String {
         self.next_worker += 1;
         let id = format!("w{}-{}", self.epoch, self.next_worker);
-        let rec = WorkerRec { name: name.to_string(), threads, renderer: renderer.to_string(), last_seen: now, units_done: 0, failures: 0, current: None, lapsed: false, last_frame: None, memory: None };
+        let rec = WorkerRec {
+            name: name.to_string(),
+            threads,
+            renderer: renderer.to_string(),
+            last_seen: now,
+            units_done: 0,
+            failures: 0,
+            current: None,
+            lapsed: false,
+            last_frame: None,
+            memory: None,
+        };
         self.workers.insert(id.clone(), rec);
         id
     }
@@ -150,7 +161,8 @@ impl Scheduler {
         if self.workers.remove(id).is_none() {
             return false;
         }
-        let held: Vec<String> = self.leases.iter().filter(|(_, l)| l.worker == id).map(|(k, _)| k.clone()).collect();
+        let held: Vec<String> =
+            self.leases.iter().filter(|(_, l)| l.worker == id).map(|(k, _)| k.clone()).collect();
         for lease in &held {
             self.release(lease);
         }
@@ -183,7 +195,8 @@ impl Scheduler {
     /// Distinct workers holding a lease on the job.
     pub fn workers_on(&self, id: &str) -> u32 {
         let Some(&seq) = self.by_id.get(id) else { return 0 };
-        let mut w: Vec<&str> = self.leases.values().filter(|l| l.job_seq == seq).map(|l| l.worker.as_str()).collect();
+        let mut w: Vec<&str> =
+            self.leases.values().filter(|l| l.job_seq == seq).map(|l| l.worker.as_str()).collect();
         w.sort_unstable();
         w.dedup();
         w.len() as u32
@@ -211,7 +224,12 @@ impl Scheduler {
 
     /// Pauses (`pause`) or resumes a job; None for an unknown job, Err(state) for one that has
     /// ended. The job's state after it otherwise.
-    pub fn set_paused(&mut self, id: &str, pause: bool, now: u64) -> Option<Result<JobState, JobState>> {
+    pub fn set_paused(
+        &mut self,
+        id: &str,
+        pause: bool,
+        now: u64,
+    ) -> Option<Result<JobState, JobState>> {
         let job = self.job_mut(id)?;
         let done = if pause { job.pause(now) } else { job.resume() };
         Some(done.map(|()| job.state))
@@ -242,8 +260,13 @@ impl Scheduler {
 
     /// Ended jobs stamped at or before `unix_ms`, oldest first (for `--delete-ended-after`).
     pub fn ended_by(&self, unix_ms: u64) -> Vec<String> {
-        let mut old: Vec<(u64, &str)> =
-            self.jobs.values().filter_map(|j| j.ended_unix_ms.filter(|&t| t <= unix_ms).map(|t| (t, j.cfg.id.as_str()))).collect();
+        let mut old: Vec<(u64, &str)> = self
+            .jobs
+            .values()
+            .filter_map(|j| {
+                j.ended_unix_ms.filter(|&t| t <= unix_ms).map(|t| (t, j.cfg.id.as_str()))
+            })
+            .collect();
         old.sort();
         old.into_iter().map(|(_, id)| id.to_string()).collect()
     }
@@ -262,5 +285,4 @@ impl Scheduler {
     pub fn max_failures(&self) -> u32 {
         self.max_failures
     }
-
 }

@@ -54,8 +54,19 @@ impl Scheduler {
                 leased.entry(l.job_seq).or_default().insert(&w.renderer);
             }
         }
-        let live = self.workers.iter().filter(|(_, w)| now.saturating_sub(w.last_seen) <= window).map(|(id, w)| (id.as_str(), w.renderer.as_str())).collect();
-        RendererGate { mine, leased, live, max_failures: self.max_failures, mix: self.mix_renderers }
+        let live = self
+            .workers
+            .iter()
+            .filter(|(_, w)| now.saturating_sub(w.last_seen) <= window)
+            .map(|(id, w)| (id.as_str(), w.renderer.as_str()))
+            .collect();
+        RendererGate {
+            mine,
+            leased,
+            live,
+            max_failures: self.max_failures,
+            mix: self.mix_renderers,
+        }
     }
 }
 
@@ -79,7 +90,10 @@ impl RendererGate<'_> {
             }
             any = true;
             // A worker the blocklist keeps off this job would never take its units.
-            live |= self.live.iter().any(|&(id, renderer)| renderer == r && !job.is_blocked(id, self.max_failures));
+            live |= self
+                .live
+                .iter()
+                .any(|&(id, renderer)| renderer == r && !job.is_blocked(id, self.max_failures));
         }
         match (any, live) {
             (false, _) => Admission::Same,

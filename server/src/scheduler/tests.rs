@@ -7,7 +7,20 @@ pub(super) fn config(id: &str, spp: u32, priority: i32) -> JobConfig {
     JobConfig {
         id: id.into(),
         scene_id: "s".into(),
-        params: RenderParams { width: 10, height: 6, seed: 1, estimator: "mis".into(), sampler: "sobol".into(), camera: None, max_depth: 8, roulette_depth: None, light_sampler: None, background: [0.0; 3], animation: None, fps: tessera_proto::job::DEFAULT_FPS },
+        params: RenderParams {
+            width: 10,
+            height: 6,
+            seed: 1,
+            estimator: "mis".into(),
+            sampler: "sobol".into(),
+            camera: None,
+            max_depth: 8,
+            roulette_depth: None,
+            light_sampler: None,
+            background: [0.0; 3],
+            animation: None,
+            fps: tessera_proto::job::DEFAULT_FPS,
+        },
         spp,
         spp_given: true,
         noise_target: None,
@@ -26,8 +39,19 @@ pub(super) fn config(id: &str, spp: u32, priority: i32) -> JobConfig {
 pub(super) fn sums(g: &Lease, v: f64) -> PartialSums {
     let n = (g.samples[1] - g.samples[0]) as f64;
     let x = v + g.samples[0] as f64 * 1e-3;
-    let p = WirePixel { sum: [x * n; 3], sum_sq: [x * x * n + 1e-4; 3], sum_lum_sq: x * x * n, count: n as u64 };
-    PartialSums { tile: g.tile, samples: g.samples, dropped: 0, max_weight: 1.0, pixels: vec![p; g.tile.pixel_count()] }
+    let p = WirePixel {
+        sum: [x * n; 3],
+        sum_sq: [x * x * n + 1e-4; 3],
+        sum_lum_sq: x * x * n,
+        count: n as u64,
+    };
+    PartialSums {
+        tile: g.tile,
+        samples: g.samples,
+        dropped: 0,
+        max_weight: 1.0,
+        pixels: vec![p; g.tile.pixel_count()],
+    }
 }
 
 pub(super) fn drain(s: &mut Scheduler, w: &str, now: u64) -> Vec<Lease> {
@@ -64,9 +88,15 @@ fn an_expired_lease_is_reissued_and_its_late_result_ignored() {
     assert_eq!(s.heartbeat(&first.lease_id, 1901), None, "expired");
     let again = s.lease(&w, 1901).unwrap().unwrap();
     assert_eq!((again.tile, again.samples), (first.tile, first.samples), "same unit, same samples");
-    assert!(matches!(s.complete(&first.lease_id, sums(&first, 1.0), 1902), Err(ResultError::Stale(_))));
+    assert!(matches!(
+        s.complete(&first.lease_id, sums(&first, 1.0), 1902),
+        Err(ResultError::Stale(_))
+    ));
     assert!(s.complete(&again.lease_id, sums(&again, 1.0), 1903).is_ok());
-    assert!(matches!(s.complete(&again.lease_id, sums(&again, 1.0), 1904), Err(ResultError::Stale(_))), "duplicate");
+    assert!(
+        matches!(s.complete(&again.lease_id, sums(&again, 1.0), 1904), Err(ResultError::Stale(_))),
+        "duplicate"
+    );
     assert_eq!(s.job("j").unwrap().tiles[0].merged[0].count, 4, "counted once");
 }
 
@@ -78,7 +108,9 @@ fn a_mismatched_result_is_refused_and_the_unit_reissued() {
     let g = s.lease(&w, 0).unwrap().unwrap();
     let mut bad = sums(&g, 1.0);
     bad.samples = [4, 8];
-    assert!(matches!(s.complete(&g.lease_id, bad, 1), Err(ResultError::Malformed(m)) if m.contains("samples")));
+    assert!(
+        matches!(s.complete(&g.lease_id, bad, 1), Err(ResultError::Malformed(m)) if m.contains("samples"))
+    );
     let grants = drain(&mut s, &w, 2);
     assert!(grants.iter().any(|x| x.tile == g.tile && x.samples == g.samples));
     assert_eq!(s.workers().next().unwrap().1.failures, 1);
@@ -201,7 +233,11 @@ fn contributions_count_each_workers_units_when_they_merge() {
     let px0 = first.tile.pixel_count() as u64;
     let job = s.job("j").unwrap();
     assert_eq!(job.contributions[&a], ("alpha".to_string(), 4 * px0));
-    assert_eq!(job.contributions[&b], ("beta".to_string(), 4 * px0), "credited once batch 0 merged");
+    assert_eq!(
+        job.contributions[&b],
+        ("beta".to_string(), 4 * px0),
+        "credited once batch 0 merged"
+    );
     for g in rest.iter().filter(|g| g.lease_id != tile0_batch1.lease_id) {
         s.complete(&g.lease_id, sums(g, 1.0), 3).unwrap();
     }
@@ -238,7 +274,11 @@ fn a_worker_holding_two_leases_shows_the_older_as_current() {
     assert_eq!(current(&s), Some("j/0/0".to_string()));
     assert_eq!(s.workers_on("j"), 1);
     s.complete(&a.lease_id, sums(&a, 1.0), 2).unwrap();
-    assert_eq!(current(&s), Some("j/1/0".to_string()), "the prefetched unit is current once the first is done");
+    assert_eq!(
+        current(&s),
+        Some("j/1/0".to_string()),
+        "the prefetched unit is current once the first is done"
+    );
     assert!(s.release(&b.lease_id));
     assert_eq!(current(&s), None);
 }
@@ -255,7 +295,9 @@ fn leases_expiring_in_one_silence_count_one_failure() {
     s.heartbeat(&b.lease_id, 500); // the second lease's deadline is later
     s.tick(TIMEOUT + 1);
     s.tick(TIMEOUT + 501);
-    let failures = |s: &Scheduler| (s.workers().next().unwrap().1.failures, s.job("j").unwrap().failures[&w].count);
+    let failures = |s: &Scheduler| {
+        (s.workers().next().unwrap().1.failures, s.job("j").unwrap().failures[&w].count)
+    };
     assert_eq!(failures(&s), (1, 1), "one silence, one failure");
     assert_eq!(s.workers().next().unwrap().1.current, None);
     let now = TIMEOUT + 502;
@@ -275,12 +317,22 @@ fn a_worker_leaving_hands_its_leases_straight_back() {
     assert!(!s.deregister_worker(&a), "already gone");
     assert!(s.lease(&a, 1).is_err(), "a is unknown now");
     assert_eq!(s.heartbeat(&held[0].lease_id, 1), None, "its leases are gone");
-    assert!(matches!(s.complete(&held[1].lease_id, sums(&held[1], 1.0), 1), Err(ResultError::Stale(_))));
+    assert!(matches!(
+        s.complete(&held[1].lease_id, sums(&held[1], 1.0), 1),
+        Err(ResultError::Stale(_))
+    ));
     // Before any deadline, b gets a's two units back first, in a's order, then the rest.
     let again = drain(&mut s, &b, 1);
     assert_eq!(again.len(), 6, "every unit once");
-    assert_eq!(again[..2].iter().map(|g| g.tile).collect::<Vec<_>>(), held.iter().map(|g| g.tile).collect::<Vec<_>>());
-    assert_eq!(s.workers().map(|(id, w)| (id.clone(), w.failures)).collect::<Vec<_>>(), [(b, 0)], "a is forgotten, b blamed for nothing");
+    assert_eq!(
+        again[..2].iter().map(|g| g.tile).collect::<Vec<_>>(),
+        held.iter().map(|g| g.tile).collect::<Vec<_>>()
+    );
+    assert_eq!(
+        s.workers().map(|(id, w)| (id.clone(), w.failures)).collect::<Vec<_>>(),
+        [(b, 0)],
+        "a is forgotten, b blamed for nothing"
+    );
 }
 mod durable;
 mod frames;

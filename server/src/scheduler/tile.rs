@@ -53,7 +53,15 @@ impl TileRun {
     }
 
     /// Puts back a checkpoint: `sums` hold batches 0..upto; everything after is issued afresh.
-    pub fn restore(&mut self, upto: u32, stop_at: Option<u32>, sums: Vec<PixelSums>, dropped: u64, max_weight: f64, samples_per_pixel: u64) {
+    pub fn restore(
+        &mut self,
+        upto: u32,
+        stop_at: Option<u32>,
+        sums: Vec<PixelSums>,
+        dropped: u64,
+        max_weight: f64,
+        samples_per_pixel: u64,
+    ) {
         debug_assert_eq!(sums.len(), self.rect.pixel_count());
         self.restore_counts(upto, stop_at, dropped, max_weight, samples_per_pixel);
         self.merged = sums;
@@ -62,7 +70,13 @@ impl TileRun {
     }
 
     /// Puts back a tile that was released before the checkpoint: its counts and noise, no sums.
-    pub fn restore_released(&mut self, upto: u32, stop_at: Option<u32>, summary: &ReleasedTile, samples_per_pixel: u64) {
+    pub fn restore_released(
+        &mut self,
+        upto: u32,
+        stop_at: Option<u32>,
+        summary: &ReleasedTile,
+        samples_per_pixel: u64,
+    ) {
         self.restore_counts(upto, stop_at, summary.dropped, summary.max_weight, samples_per_pixel);
         self.persisted_upto = 0;
         self.rel_mse.set(summary.noise);
@@ -70,7 +84,14 @@ impl TileRun {
     }
 
     /// What both restores put back: batches 0..upto merged, the noise stop, the counts.
-    fn restore_counts(&mut self, upto: u32, stop_at: Option<u32>, dropped: u64, max_weight: f64, samples_per_pixel: u64) {
+    fn restore_counts(
+        &mut self,
+        upto: u32,
+        stop_at: Option<u32>,
+        dropped: u64,
+        max_weight: f64,
+        samples_per_pixel: u64,
+    ) {
         self.merged_upto = upto;
         self.next_new = upto;
         self.stop_at = stop_at;
@@ -90,7 +111,11 @@ impl TileRun {
 
     /// What a checkpoint keeps of a released tile instead of its sums.
     pub(super) fn summary(&self) -> Option<ReleasedTile> {
-        self.released.then(|| ReleasedTile { noise: self.rel_mse.get(), dropped: self.dropped, max_weight: self.max_weight })
+        self.released.then(|| ReleasedTile {
+            noise: self.rel_mse.get(),
+            dropped: self.dropped,
+            max_weight: self.max_weight,
+        })
     }
 
     fn limit(&self) -> u32 {
@@ -138,12 +163,21 @@ impl TileRun {
     /// The pixels whose relMSE [`TileRun::noise`] would compute afresh: the tile's, when it has
     /// merged batches since its relMSE was last computed.
     pub(super) fn stale_noise_pixels(&self) -> u64 {
-        if self.merged_upto > 0 && self.rel_mse.get().is_none() { self.rect.pixel_count() as u64 } else { 0 }
+        if self.merged_upto > 0 && self.rel_mse.get().is_none() {
+            self.rect.pixel_count() as u64
+        } else {
+            0
+        }
     }
 
     /// Buffers a batch and merges every batch now contiguous, stopping early once the noise
     /// target is met. Returns how many batches merged.
-    pub(super) fn accept(&mut self, batch: u32, sums: PartialSums, noise_stop: Option<NoiseStop>) -> u32 {
+    pub(super) fn accept(
+        &mut self,
+        batch: u32,
+        sums: PartialSums,
+        noise_stop: Option<NoiseStop>,
+    ) -> u32 {
         self.pending.insert(batch, sums);
         let mut merged = 0;
         while let Some(next) = self.pending.remove(&self.merged_upto) {
@@ -160,7 +194,12 @@ impl TileRun {
         }
         let per_pixel = (sums.samples[1] - sums.samples[0]) as u64;
         for (acc, p) in self.merged.iter_mut().zip(&sums.pixels) {
-            acc.merge(&PixelSums { sum: p.sum, sum_sq: p.sum_sq, sum_lum_sq: p.sum_lum_sq, count: p.count });
+            acc.merge(&PixelSums {
+                sum: p.sum,
+                sum_sq: p.sum_sq,
+                sum_lum_sq: p.sum_lum_sq,
+                count: p.count,
+            });
         }
         self.merged_upto += 1;
         self.merged_samples += per_pixel * self.rect.pixel_count() as u64;

@@ -36,9 +36,11 @@ pub struct Store {
 impl Store {
     pub fn open(data_dir: &Path) -> anyhow::Result<Store> {
         let jobs_dir = data_dir.join("jobs");
-        std::fs::create_dir_all(&jobs_dir).with_context(|| format!("creating {}", jobs_dir.display()))?;
+        std::fs::create_dir_all(&jobs_dir)
+            .with_context(|| format!("creating {}", jobs_dir.display()))?;
         let path = data_dir.join("tessera.redb");
-        let db = Database::create(&path).with_context(|| format!("opening the job store {}", path.display()))?;
+        let db = Database::create(&path)
+            .with_context(|| format!("opening the job store {}", path.display()))?;
         Ok(Store { db: std::sync::Mutex::new(Some(db)), path, jobs_dir })
     }
 
@@ -47,7 +49,10 @@ impl Store {
     fn with_db<T>(&self, f: impl FnOnce(&Database) -> anyhow::Result<T>) -> anyhow::Result<T> {
         let mut guard = self.db.lock().expect("lock");
         if guard.is_none() {
-            *guard = Some(Database::create(&self.path).with_context(|| format!("reopening the job store {}", self.path.display()))?);
+            *guard = Some(
+                Database::create(&self.path)
+                    .with_context(|| format!("reopening the job store {}", self.path.display()))?,
+            );
         }
         let outcome = f(guard.as_ref().expect("opened"));
         if outcome.is_err() {
@@ -88,7 +93,9 @@ impl Store {
             let (key, value) = row?;
             match serde_json::from_slice::<JobRecord>(value.value()) {
                 Ok(r) => jobs.push(r),
-                Err(e) => tracing::error!(job = key.value(), "skipping an unreadable job record: {e}"),
+                Err(e) => {
+                    tracing::error!(job = key.value(), "skipping an unreadable job record: {e}")
+                }
             }
         }
         jobs.sort_by_key(|r| r.seq);
@@ -120,7 +127,9 @@ impl Store {
             Ok(())
         })?;
         match std::fs::remove_dir_all(self.job_dir(job_id)) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => tracing::warn!(job = job_id, "removing its checkpoint files: {e}"),
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                tracing::warn!(job = job_id, "removing its checkpoint files: {e}")
+            }
             _ => {}
         }
         Ok(())
@@ -141,11 +150,16 @@ impl Store {
             let bytes = tile_file::encode(t.tile, t.upto, t.dropped, t.max_weight, &t.sums);
             let path = dir.join(tile_file::file_name(t.tile, t.upto));
             let tmp = dir.join(format!(".{}.tmp", tile_file::file_name(t.tile, t.upto)));
-            let mut f = std::fs::File::create(&tmp).with_context(|| format!("writing {}", tmp.display()))?;
-            f.write_all(&bytes).and_then(|_| f.sync_all()).with_context(|| format!("writing {}", tmp.display()))?;
+            let mut f = std::fs::File::create(&tmp)
+                .with_context(|| format!("writing {}", tmp.display()))?;
+            f.write_all(&bytes)
+                .and_then(|_| f.sync_all())
+                .with_context(|| format!("writing {}", tmp.display()))?;
             std::fs::rename(&tmp, &path).with_context(|| format!("renaming {}", tmp.display()))?;
         }
-        std::fs::File::open(&dir).and_then(|d| d.sync_all()).with_context(|| format!("syncing {}", dir.display()))?;
+        std::fs::File::open(&dir)
+            .and_then(|d| d.sync_all())
+            .with_context(|| format!("syncing {}", dir.display()))?;
         Ok(())
     }
 
@@ -173,12 +187,24 @@ impl Store {
     }
 
     /// Reads a tile's checkpoint back, checking it is the one the record names.
-    pub fn read_tile(&self, job_id: &str, tile: u32, mark: TileMark, pixels: usize) -> Result<RestoredTile, String> {
+    pub fn read_tile(
+        &self,
+        job_id: &str,
+        tile: u32,
+        mark: TileMark,
+        pixels: usize,
+    ) -> Result<RestoredTile, String> {
         let path = self.job_dir(job_id).join(tile_file::file_name(tile, mark.upto));
         let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
         let f = tile_file::decode(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
         if (f.tile, f.upto, f.sums.len()) != (tile, mark.upto, pixels) {
-            return Err(format!("{}: holds tile {} batches {} ({} px), not the recorded one", path.display(), f.tile, f.upto, f.sums.len()));
+            return Err(format!(
+                "{}: holds tile {} batches {} ({} px), not the recorded one",
+                path.display(),
+                f.tile,
+                f.upto,
+                f.sums.len()
+            ));
         }
         Ok(RestoredTile { sums: f.sums, dropped: f.dropped, max_weight: f.max_weight })
     }
@@ -187,8 +213,11 @@ impl Store {
     /// crashed before its commit, temp files).
     pub fn remove_orphans(&self, job_id: &str, marks: &[TileMark]) {
         let Ok(entries) = std::fs::read_dir(self.job_dir(job_id)) else { return };
-        let keep: std::collections::HashSet<String> =
-            marks.iter().enumerate().filter_map(|(i, m)| m.file_upto().map(|upto| tile_file::file_name(i as u32, upto))).collect();
+        let keep: std::collections::HashSet<String> = marks
+            .iter()
+            .enumerate()
+            .filter_map(|(i, m)| m.file_upto().map(|upto| tile_file::file_name(i as u32, upto)))
+            .collect();
         for e in entries.flatten() {
             if !e.file_name().to_str().is_some_and(|n| keep.contains(n)) {
                 tracing::debug!(file = %e.path().display(), "removing an orphaned checkpoint file");

@@ -15,7 +15,20 @@ fn record(upto: u32) -> JobRecord {
         cfg: JobConfig {
             id: "j1".into(),
             scene_id: "s".into(),
-            params: RenderParams { width: 2, height: 1, seed: 1, estimator: "mis".into(), sampler: "sobol".into(), camera: None, max_depth: 8, roulette_depth: None, light_sampler: None, background: [0.0; 3], animation: None, fps: tessera_proto::job::DEFAULT_FPS },
+            params: RenderParams {
+                width: 2,
+                height: 1,
+                seed: 1,
+                estimator: "mis".into(),
+                sampler: "sobol".into(),
+                camera: None,
+                max_depth: 8,
+                roulette_depth: None,
+                light_sampler: None,
+                background: [0.0; 3],
+                animation: None,
+                fps: tessera_proto::job::DEFAULT_FPS,
+            },
             spp: 8,
             spp_given: true,
             noise_target: None,
@@ -41,7 +54,8 @@ fn record(upto: u32) -> JobRecord {
 }
 
 fn tile(upto: u32, previous_upto: u32, v: f64) -> TileCheckpoint {
-    let p = PixelSums { sum: [v; 3], sum_sq: [v * v; 3], sum_lum_sq: v * v, count: 4 * upto as u64 };
+    let p =
+        PixelSums { sum: [v; 3], sum_sq: [v * v; 3], sum_lum_sq: v * v, count: 4 * upto as u64 };
     TileCheckpoint { tile: 0, upto, previous_upto, sums: vec![p; 2], dropped: 0, max_weight: v }
 }
 
@@ -61,7 +75,10 @@ fn a_crash_between_files_and_commit_keeps_the_old_checkpoint() {
     assert_eq!(jobs.len(), 1);
     assert_eq!(jobs[0].tiles[0].upto, 1, "the record still names the old file");
     store.remove_orphans("j1", &jobs[0].tiles);
-    let left: Vec<String> = std::fs::read_dir(d.join("jobs/j1")).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+    let left: Vec<String> = std::fs::read_dir(d.join("jobs/j1"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
     assert_eq!(left, ["t0-b1.sums"], "the uncommitted file and the temp file are gone");
     let t = store.read_tile("j1", 0, jobs[0].tiles[0], 2).unwrap();
     assert_eq!(t.sums[0].sum, [1.0; 3]);

@@ -60,7 +60,12 @@ pub fn decode(bytes: &[u8]) -> Result<TileFile, String> {
         .map(|i| {
             let o = HEADER + i * PIXEL;
             let f = |k: usize| f64::from_bits(u64_at(o + 8 * k));
-            PixelSums { sum: [f(0), f(1), f(2)], sum_sq: [f(3), f(4), f(5)], sum_lum_sq: f(6), count: u64_at(o + 56) }
+            PixelSums {
+                sum: [f(0), f(1), f(2)],
+                sum_sq: [f(3), f(4), f(5)],
+                sum_lum_sq: f(6),
+                count: u64_at(o + 56),
+            }
         })
         .collect();
     Ok(TileFile { tile, upto, dropped: u64_at(24), max_weight: f64::from_bits(u64_at(32)), sums })
@@ -71,7 +76,14 @@ mod tests {
     use super::*;
 
     fn sample() -> Vec<PixelSums> {
-        (0..5).map(|i| PixelSums { sum: [i as f64, 0.1, -0.0], sum_sq: [1e300, 2.5, 3.0], sum_lum_sq: 0.3, count: i }).collect()
+        (0..5)
+            .map(|i| PixelSums {
+                sum: [i as f64, 0.1, -0.0],
+                sum_sq: [1e300, 2.5, 3.0],
+                sum_lum_sq: 0.3,
+                count: i,
+            })
+            .collect()
     }
 
     #[test]
@@ -79,7 +91,13 @@ mod tests {
         let bytes = encode(7, 3, 2, 9.5, &sample());
         let t = decode(&bytes).unwrap();
         assert_eq!((t.tile, t.upto, t.dropped, t.max_weight), (7, 3, 2, 9.5));
-        let bits = |v: &[PixelSums]| v.iter().flat_map(|p| p.sum.iter().chain(&p.sum_sq).map(|x| x.to_bits()).collect::<Vec<_>>()).collect::<Vec<_>>();
+        let bits = |v: &[PixelSums]| {
+            v.iter()
+                .flat_map(|p| {
+                    p.sum.iter().chain(&p.sum_sq).map(|x| x.to_bits()).collect::<Vec<_>>()
+                })
+                .collect::<Vec<_>>()
+        };
         assert_eq!(bits(&t.sums), bits(&sample()));
         assert_eq!(t.sums.iter().map(|p| p.count).collect::<Vec<_>>(), vec![0, 1, 2, 3, 4]);
     }

@@ -3,11 +3,11 @@
 //! Every failure is either [`CallError::Transient`] (no connection, timeout, 5xx, 408, 429, a
 //! body that does not parse: worth retrying) or [`CallError::Fatal`] (any other status the
 //! protocol does not define for that endpoint).
+use super::prepare::Prepared;
 use anyhow::{Context, bail};
 use percent_encoding::{AsciiSet, NON_ALPHANUMERIC, utf8_percent_encode};
 use reqwest::{Client, Method, RequestBuilder, Response, StatusCode};
 use std::time::Duration;
-use super::prepare::Prepared;
 use tessera_proto::{Heartbeat, Lease, LeaseRequest, Problem, Registration, WorkerHello};
 
 #[derive(Debug)]
@@ -86,10 +86,13 @@ pub(crate) struct Api {
 impl Api {
     pub(crate) fn new(coordinator: &str, token: Option<String>) -> anyhow::Result<Api> {
         let base = coordinator.trim().trim_end_matches('/').to_owned();
-        let url = reqwest::Url::parse(&base).with_context(|| format!("coordinator address {coordinator:?} is not a URL"))?;
+        let url = reqwest::Url::parse(&base)
+            .with_context(|| format!("coordinator address {coordinator:?} is not a URL"))?;
         match url.scheme() {
             "http" => {}
-            "https" => bail!("coordinator {base}: https is not built in; use http:// (put TLS in a proxy in front)"),
+            "https" => bail!(
+                "coordinator {base}: https is not built in; use http:// (put TLS in a proxy in front)"
+            ),
             other => bail!("coordinator {base}: unsupported scheme {other:?} (expected http)"),
         }
         let http = Client::builder()
@@ -99,14 +102,22 @@ impl Api {
             .user_agent(concat!("tessera-worker/", env!("CARGO_PKG_VERSION")))
             .build()
             .context("cannot build the HTTP client")?;
-        Ok(Api { http, base, token: token.filter(|t| !t.is_empty()), idle_reason: Default::default() })
+        Ok(Api {
+            http,
+            base,
+            token: token.filter(|t| !t.is_empty()),
+            idle_reason: Default::default(),
+        })
     }
 
     /// Logs why the coordinator gives this worker no work (`x-tessera-idle-reason` on a 204:
     /// jobs with units left are pinned to another renderer or keep it off), once per change
     /// rather than on every poll; work or a plain 204 clears it. True when it logged.
     pub(crate) fn note_idle(&self, headers: Option<&reqwest::header::HeaderMap>) -> bool {
-        let reason = headers.and_then(|h| h.get(IDLE_REASON)).and_then(|v| v.to_str().ok()).map(str::to_owned);
+        let reason = headers
+            .and_then(|h| h.get(IDLE_REASON))
+            .and_then(|v| v.to_str().ok())
+            .map(str::to_owned);
         let mut last = self.idle_reason.lock().expect("lock");
         if reason == *last {
             return false;
@@ -132,20 +143,32 @@ impl Api {
     }
 
     pub(crate) async fn register(&self, hello: &WorkerHello) -> Result<Registration, CallError> {
-        let resp = send(self.request(Method::POST, "/v1/workers", JSON_TIMEOUT).json(hello), "registration").await?;
+        let resp = send(
+            self.request(Method::POST, "/v1/workers", JSON_TIMEOUT).json(hello),
+            "registration",
+        )
+        .await?;
         match resp.status() {
-            StatusCode::OK | StatusCode::CREATED => json(resp, "registration", |b| serde_json::from_slice::<Registration>(b)).await,
+            StatusCode::OK | StatusCode::CREATED => {
+                json(resp, "registration", |b| serde_json::from_slice::<Registration>(b)).await
+            }
             _ => Err(unexpected(resp, "registration").await),
         }
     }
 
     pub(crate) async fn lease(&self, worker_id: &str) -> Result<LeaseAnswer, CallError> {
         let body = LeaseRequest { worker_id: worker_id.to_owned() };
-        let resp = send(self.request(Method::POST, "/v1/leases?wait_ms=1000", LEASE_TIMEOUT).json(&body), "lease request").await?;
+        let resp = send(
+            self.request(Method::POST, "/v1/leases?wait_ms=1000", LEASE_TIMEOUT).json(&body),
+            "lease request",
+        )
+        .await?;
         match resp.status() {
             StatusCode::OK => {
                 self.note_idle(None);
-                Ok(LeaseAnswer::Lease(Box::new(json(resp, "lease request", |b| serde_json::from_slice::<Lease>(b)).await?)))
+                Ok(LeaseAnswer::Lease(Box::new(
+                    json(resp, "lease request", |b| serde_json::from_slice::<Lease>(b)).await?,
+                )))
             }
             StatusCode::NO_CONTENT => {
                 self.note_idle(Some(resp.headers()));
@@ -161,10 +184,13 @@ impl Api {
         let resp = send(self.request(Method::POST, &path, HEARTBEAT_TIMEOUT), "heartbeat").await?;
         match resp.status() {
             StatusCode::OK => {
-                let hb = json(resp, "heartbeat", |b| serde_json::from_slice::<Heartbeat>(b)).await?;
+                let hb =
+                    json(resp, "heartbeat", |b| serde_json::from_slice::<Heartbeat>(b)).await?;
                 Ok(HeartbeatAnswer::Extended(Duration::from_millis(hb.deadline_ms)))
             }
-            StatusCode::CONFLICT | StatusCode::NOT_FOUND | StatusCode::GONE => Ok(HeartbeatAnswer::Gone),
+            StatusCode::CONFLICT | StatusCode::NOT_FOUND | StatusCode::GONE => {
+                Ok(HeartbeatAnswer::Gone)
+            }
             _ => Err(unexpected(resp, "heartbeat").await),
         }
     }
@@ -173,7 +199,13 @@ impl Api {
     /// build or refit; `x-tessera-prepare-ms`: milliseconds, 0 when cached) and what the process
     /// holds in memory (`x-tessera-rss`, `x-tessera-peak-rss`: bytes; not sent off Linux). With
     /// `next`, the answer also leases the worker its next unit (`?next=true`).
-    pub(crate) async fn upload(&self, lease_id: &str, body: bytes::Bytes, prepared: Prepared, next: bool) -> Result<UploadAnswer, CallError> {
+    pub(crate) async fn upload(
+        &self,
+        lease_id: &str,
+        body: bytes::Bytes,
+        prepared: Prepared,
+        next: bool,
+    ) -> Result<UploadAnswer, CallError> {
         let query = if next { "?next=true" } else { "" };
         let path = format!("/v1/leases/{}/result{query}", segment(lease_id));
         let mut rb = self
@@ -195,17 +227,24 @@ impl Api {
             }
             StatusCode::OK if !next => Ok(UploadAnswer::Merged(None)),
             // Merged whatever the lease's body holds: a retry would only be told the result is stale.
-            StatusCode::OK => match json(resp, "result upload", |b| serde_json::from_slice::<Lease>(b)).await {
-                Ok(lease) => {
-                    self.note_idle(None);
-                    Ok(UploadAnswer::Merged(Some(Box::new(lease))))
+            StatusCode::OK => {
+                match json(resp, "result upload", |b| serde_json::from_slice::<Lease>(b)).await {
+                    Ok(lease) => {
+                        self.note_idle(None);
+                        Ok(UploadAnswer::Merged(Some(Box::new(lease))))
+                    }
+                    Err(e) => {
+                        tracing::warn!(
+                            lease = lease_id,
+                            "result merged, but the next lease in its answer is unreadable ({e}); it will expire"
+                        );
+                        Ok(UploadAnswer::Merged(None))
+                    }
                 }
-                Err(e) => {
-                    tracing::warn!(lease = lease_id, "result merged, but the next lease in its answer is unreadable ({e}); it will expire");
-                    Ok(UploadAnswer::Merged(None))
-                }
-            },
-            StatusCode::CONFLICT | StatusCode::NOT_FOUND | StatusCode::GONE => Ok(UploadAnswer::Stale),
+            }
+            StatusCode::CONFLICT | StatusCode::NOT_FOUND | StatusCode::GONE => {
+                Ok(UploadAnswer::Stale)
+            }
             StatusCode::UNPROCESSABLE_ENTITY => Ok(UploadAnswer::Malformed(detail(resp).await)),
             _ => Err(unexpected(resp, "result upload").await),
         }
@@ -214,7 +253,8 @@ impl Api {
     /// Gives a lease back unrendered. A lease the coordinator no longer has counts as returned.
     pub(crate) async fn release(&self, lease_id: &str) -> Result<(), CallError> {
         let path = format!("/v1/leases/{}", segment(lease_id));
-        let resp = send(self.request(Method::DELETE, &path, RELEASE_TIMEOUT), "lease release").await?;
+        let resp =
+            send(self.request(Method::DELETE, &path, RELEASE_TIMEOUT), "lease release").await?;
         match resp.status() {
             s if s.is_success() => Ok(()),
             StatusCode::CONFLICT | StatusCode::NOT_FOUND | StatusCode::GONE => Ok(()),
@@ -226,7 +266,8 @@ impl Api {
     /// coordinator that no longer knows the worker (restarted) counts as done.
     pub(crate) async fn deregister(&self, worker_id: &str) -> Result<(), CallError> {
         let path = format!("/v1/workers/{}", segment(worker_id));
-        let resp = send(self.request(Method::DELETE, &path, DEREGISTER_TIMEOUT), "deregistration").await?;
+        let resp =
+            send(self.request(Method::DELETE, &path, DEREGISTER_TIMEOUT), "deregistration").await?;
         match resp.status() {
             s if s.is_success() => Ok(()),
             StatusCode::NOT_FOUND | StatusCode::GONE => Ok(()),
@@ -258,16 +299,25 @@ async fn send(rb: RequestBuilder, what: &str) -> Result<Response, CallError> {
 
 /// Reads a JSON answer; `parse` is `serde_json::from_slice` at the wanted type (taking it as a
 /// function keeps serde itself out of the worker's dependencies).
-async fn json<T>(resp: Response, what: &str, parse: fn(&[u8]) -> serde_json::Result<T>) -> Result<T, CallError> {
-    let bytes = resp.bytes().await.map_err(|e| CallError::Transient(format!("{what}: {}", chain(&e))))?;
-    parse(&bytes).map_err(|e| CallError::Transient(format!("{what}: the answer does not parse: {e}")))
+async fn json<T>(
+    resp: Response,
+    what: &str,
+    parse: fn(&[u8]) -> serde_json::Result<T>,
+) -> Result<T, CallError> {
+    let bytes =
+        resp.bytes().await.map_err(|e| CallError::Transient(format!("{what}: {}", chain(&e))))?;
+    parse(&bytes)
+        .map_err(|e| CallError::Transient(format!("{what}: the answer does not parse: {e}")))
 }
 
 /// An error status the endpoint does not define: 5xx, 408 and 429 are worth retrying.
 async fn unexpected(resp: Response, what: &str) -> CallError {
     let status = resp.status();
     let msg = format!("{what}: {status}: {}", detail(resp).await);
-    if status.is_server_error() || status == StatusCode::REQUEST_TIMEOUT || status == StatusCode::TOO_MANY_REQUESTS {
+    if status.is_server_error()
+        || status == StatusCode::REQUEST_TIMEOUT
+        || status == StatusCode::TOO_MANY_REQUESTS
+    {
         CallError::Transient(msg)
     } else {
         CallError::Fatal(msg)

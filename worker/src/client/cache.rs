@@ -4,10 +4,10 @@
 //! per worker and the next frame of an animation can refit the last one's BVH.
 //! Scenes that failed to load are remembered too (loading is deterministic), so a broken scene
 //! is not downloaded again for every lease of its job.
-use tessera_render::scene::{AnimationInfo, Sequence};
-use tessera_render::tracer::Scene;
 use std::collections::VecDeque;
 use std::sync::Arc;
+use tessera_render::scene::{AnimationInfo, Sequence};
+use tessera_render::tracer::Scene;
 
 /// Frame scenes kept (each holds its triangles and BVH: the memory that matters).
 pub(crate) const FRAMES_KEPT: usize = 4;
@@ -78,7 +78,12 @@ pub(crate) struct SceneCache {
 
 impl Default for SceneCache {
     fn default() -> SceneCache {
-        SceneCache { sequences: Lru::new(SEQUENCES_KEPT), animations: Lru::new(ANIMATIONS_KEPT), frames: Lru::new(FRAMES_KEPT), failures: Lru::new(FAILURES_KEPT) }
+        SceneCache {
+            sequences: Lru::new(SEQUENCES_KEPT),
+            animations: Lru::new(ANIMATIONS_KEPT),
+            frames: Lru::new(FRAMES_KEPT),
+            failures: Lru::new(FAILURES_KEPT),
+        }
     }
 }
 

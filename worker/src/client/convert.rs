@@ -1,10 +1,10 @@
 //! Between the wire types of `tessera_proto` and the tracer's own (the tracer knows no proto).
-use tessera_render::tracer::integrator::PathSettings;
-use tessera_render::tracer::sampler::SamplerKind;
-use tessera_render::tracer::{Estimator, LightSampler, RenderSettings, Roulette, Tile, TileSums};
 use glam::Vec3;
 use std::str::FromStr;
 use tessera_proto::{PartialSums, RenderParams, TileRect, WirePixel};
+use tessera_render::tracer::integrator::PathSettings;
+use tessera_render::tracer::sampler::SamplerKind;
+use tessera_render::tracer::{Estimator, LightSampler, RenderSettings, Roulette, Tile, TileSums};
 
 /// A unit's sums in wire form, bit for bit (`max_weight` widened to f64 exactly).
 /// `samples` is the unit's sample range `[start, end)`.
@@ -15,7 +15,16 @@ pub fn to_wire(sums: &TileSums, samples: [u32; 2]) -> PartialSums {
         samples,
         dropped: sums.dropped,
         max_weight: f64::from(sums.max_weight),
-        pixels: sums.pixels.iter().map(|p| WirePixel { sum: p.sum, sum_sq: p.sum_sq, sum_lum_sq: p.sum_lum_sq, count: p.count }).collect(),
+        pixels: sums
+            .pixels
+            .iter()
+            .map(|p| WirePixel {
+                sum: p.sum,
+                sum_sq: p.sum_sq,
+                sum_lum_sq: p.sum_lum_sq,
+                count: p.count,
+            })
+            .collect(),
     }
 }
 
@@ -24,7 +33,8 @@ pub fn render_settings(params: &RenderParams) -> Result<RenderSettings, String> 
     let estimator = Estimator::from_str(&params.estimator)?;
     let sampler = SamplerKind::from_str(&params.sampler).map_err(|e| e.to_string())?;
     // None: a coordinator that predates the setting, whose jobs all chose automatically.
-    let light_sampler = params.light_sampler.as_deref().map_or(Ok(LightSampler::Auto), LightSampler::from_str)?;
+    let light_sampler =
+        params.light_sampler.as_deref().map_or(Ok(LightSampler::Auto), LightSampler::from_str)?;
     if params.width == 0 || params.height == 0 {
         return Err(format!("image size {}×{} is empty", params.width, params.height));
     }
@@ -78,7 +88,15 @@ mod tests {
         let s = render_settings(&params()).unwrap();
         assert_eq!((s.width, s.height, s.seed), (64, 48, 7));
         assert_eq!(s.sampler, SamplerKind::Independent);
-        assert_eq!(s.path, PathSettings { estimator: Estimator::Bsdf, roulette: Roulette::Throughput { min_depth: 7 }, max_depth: 12, light_sampler: LightSampler::Tree });
+        assert_eq!(
+            s.path,
+            PathSettings {
+                estimator: Estimator::Bsdf,
+                roulette: Roulette::Throughput { min_depth: 7 },
+                max_depth: 12,
+                light_sampler: LightSampler::Tree
+            }
+        );
         assert_eq!(s.background, Vec3::new(0.5, 0.25, 0.0));
         assert_eq!(s.camera.as_deref(), Some("Camera"));
     }
@@ -94,7 +112,9 @@ mod tests {
     #[test]
     fn every_light_sampler_maps_and_absent_is_auto() {
         for l in LightSampler::ALL {
-            let s = render_settings(&RenderParams { light_sampler: Some(l.name().into()), ..params() }).unwrap();
+            let s =
+                render_settings(&RenderParams { light_sampler: Some(l.name().into()), ..params() })
+                    .unwrap();
             assert_eq!(s.path.light_sampler, l);
         }
         let old = render_settings(&RenderParams { light_sampler: None, ..params() }).unwrap();
@@ -119,8 +139,18 @@ mod tests {
     fn to_wire_is_bit_exact_and_decodes() {
         let tile = Tile { x0: 3, y0: 5, w: 2, h: 1 };
         let mut sums = TileSums::new(tile);
-        sums.pixels[0] = PixelSums { sum: [0.1, 1e-300, 3.0], sum_sq: [0.01, 0.0, 9.0], sum_lum_sq: 0.3, count: 3 };
-        sums.pixels[1] = PixelSums { sum: [f64::MIN_POSITIVE, 2.0, 0.7], sum_sq: [0.0, 4.0, 0.49], sum_lum_sq: 1.1, count: 2 };
+        sums.pixels[0] = PixelSums {
+            sum: [0.1, 1e-300, 3.0],
+            sum_sq: [0.01, 0.0, 9.0],
+            sum_lum_sq: 0.3,
+            count: 3,
+        };
+        sums.pixels[1] = PixelSums {
+            sum: [f64::MIN_POSITIVE, 2.0, 0.7],
+            sum_sq: [0.0, 4.0, 0.49],
+            sum_lum_sq: 1.1,
+            count: 2,
+        };
         sums.dropped = 1;
         sums.max_weight = 1.1f32;
         let wire = to_wire(&sums, [8, 11]);

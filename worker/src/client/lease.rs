@@ -12,20 +12,31 @@ const RELEASE_ATTEMPTS: u32 = 3;
 
 /// Heartbeats the lease every `every` and returns once it is lost, saying why. Transient
 /// failures are retried at the same pace until the lease's deadline passes.
-pub(super) async fn keep_alive(api: &Api, id: &str, every: Duration, deadline: &Mutex<Instant>) -> String {
+pub(super) async fn keep_alive(
+    api: &Api,
+    id: &str,
+    every: Duration,
+    deadline: &Mutex<Instant>,
+) -> String {
     let expired = || "its deadline passed without a successful heartbeat".to_owned();
     loop {
         // Normally `every`; sooner if the lease was granted with a shorter deadline.
         let due = *deadline.lock().expect("deadline lock");
-        let pause = every.min(due.saturating_duration_since(Instant::now()) / 2).max(Duration::from_millis(10));
+        let pause = every
+            .min(due.saturating_duration_since(Instant::now()) / 2)
+            .max(Duration::from_millis(10));
         tokio::time::sleep(pause).await;
         let due = *deadline.lock().expect("deadline lock");
         let Some(left) = due.checked_duration_since(Instant::now()).filter(|d| !d.is_zero()) else {
             return expired();
         };
         match tokio::time::timeout(left, api.heartbeat(id)).await {
-            Ok(Ok(HeartbeatAnswer::Extended(d))) => *deadline.lock().expect("deadline lock") = Instant::now() + d,
-            Ok(Ok(HeartbeatAnswer::Gone)) => return "the coordinator has dropped it (expired or job canceled)".to_owned(),
+            Ok(Ok(HeartbeatAnswer::Extended(d))) => {
+                *deadline.lock().expect("deadline lock") = Instant::now() + d
+            }
+            Ok(Ok(HeartbeatAnswer::Gone)) => {
+                return "the coordinator has dropped it (expired or job canceled)".to_owned();
+            }
             Ok(Err(e)) => warn!(lease = id, "heartbeat failed (will retry): {e}"),
             Err(_) => return expired(),
         }

@@ -63,22 +63,22 @@ pub use convert::{render_settings, to_wire};
 
 use anyhow::{Context, anyhow};
 use api::{Api, LeaseAnswer};
-use tessera_render::scene::Preparation;
 use cache::SceneCache;
+use lease::{heartbeat_every, keep_alive, release};
 use prefetch::Prefetch;
 use queue::Queued;
 use retry::{Backoff, Retried, Stop, until_done};
-use lease::{heartbeat_every, keep_alive, release};
-use unit::Unit;
-use upload::{Uploaded, finish_upload, from_upload_answer, give_back_carried, upload};
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tessera_proto::{Lease, Registration, WorkerHello};
+use tessera_render::scene::Preparation;
 use tokio::sync::oneshot;
 use tokio::task::JoinHandle;
 use tracing::{debug, info, warn};
+use unit::Unit;
+use upload::{Uploaded, finish_upload, from_upload_answer, give_back_carried, upload};
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct WorkerConfig {
@@ -129,7 +129,10 @@ const IDLE: Backoff = Backoff::new(Duration::from_millis(50), Duration::from_sec
 /// Errors only for a bad configuration (an address that is not an `http://` URL, no threads) or
 /// a refusal retrying cannot fix, such as 401 for a wrong token; an unreachable or restarting
 /// coordinator is waited for.
-pub async fn run(config: WorkerConfig, shutdown: impl Future<Output = ()> + Send) -> anyhow::Result<WorkerReport> {
+pub async fn run(
+    config: WorkerConfig,
+    shutdown: impl Future<Output = ()> + Send,
+) -> anyhow::Result<WorkerReport> {
     let worker = Arc::new(Worker::new(&config)?);
     let (stop_tx, stop) = Stop::new();
     let work = worker.main_loop(stop);
@@ -206,11 +209,20 @@ impl Worker {
             // Last, so that no upload still in flight loses its lease.
             match self.api.deregister(&id).await {
                 Ok(()) => debug!(worker_id = %id, "deregistered"),
-                Err(e) => warn!(worker_id = %id, "cannot deregister ({e}); the coordinator will see this worker's leases expire"),
+                Err(e) => {
+                    warn!(worker_id = %id, "cannot deregister ({e}); the coordinator will see this worker's leases expire")
+                }
             }
         }
         report.busy = Duration::from_nanos(self.busy_ns.load(Ordering::Relaxed));
-        info!(units_done = report.units_done, units_stale = report.units_stale, units_canceled = report.units_canceled, units_queued_ahead = report.units_queued_ahead, busy_s = report.busy.as_secs_f64(), "worker stopped");
+        info!(
+            units_done = report.units_done,
+            units_stale = report.units_stale,
+            units_canceled = report.units_canceled,
+            units_queued_ahead = report.units_queued_ahead,
+            busy_s = report.busy.as_secs_f64(),
+            "worker stopped"
+        );
         result.map(|()| report)
     }
 
@@ -231,7 +243,10 @@ impl Worker {
                     continue;
                 }
                 Retried::Done(LeaseAnswer::UnknownWorker) => {
-                    info!(worker_id, "the coordinator does not know this worker (it restarted?): registering again");
+                    info!(
+                        worker_id,
+                        "the coordinator does not know this worker (it restarted?): registering again"
+                    );
                     match self.register(stop).await? {
                         Some(r) => {
                             carry.worker_id = Some(r.worker_id.clone());
@@ -241,7 +256,9 @@ impl Worker {
                     }
                     continue;
                 }
-                Retried::Fatal(e) => return Err(anyhow!("the coordinator refused to lease work: {e}")),
+                Retried::Fatal(e) => {
+                    return Err(anyhow!("the coordinator refused to lease work: {e}"));
+                }
                 Retried::Stopped(late) => {
                     if let Some(LeaseAnswer::Lease(lease)) = late {
                         self.release(&lease.lease_id).await;
@@ -255,7 +272,14 @@ impl Worker {
             carry.report.units_queued_ahead += u64::from(queued.is_some());
             let (scene_ready, after) = tokio::sync::oneshot::channel();
             let from_upload = carry.next_lease.take();
-            carry.prefetch = Some(Prefetch::start(self.clone(), worker_id.to_owned(), heartbeat_every(&reg), stop.clone(), after, from_upload));
+            carry.prefetch = Some(Prefetch::start(
+                self.clone(),
+                worker_id.to_owned(),
+                heartbeat_every(&reg),
+                stop.clone(),
+                after,
+                from_upload,
+            ));
             match self.run_unit(&lease, queued, scene_ready, heartbeat_every(&reg), stop).await {
                 Unit::Rendered { sums, deadline, prepared } => {
                     idle.reset();
@@ -264,7 +288,8 @@ impl Worker {
                     }
                     // Encoded in the upload's task, so the pool starts the next unit meanwhile. Its
                     // answer brings the lease after the prefetched one.
-                    let (api, lease_id, samples) = (self.api.clone(), lease.lease_id.clone(), lease.samples);
+                    let (api, lease_id, samples) =
+                        (self.api.clone(), lease.lease_id.clone(), lease.samples);
                     let (next_tx, next_rx) = oneshot::channel();
                     carry.next_lease = Some(next_rx);
                     carry.uploading = Some(tokio::spawn(async move {
@@ -293,7 +318,12 @@ impl Worker {
     /// The prefetched lease (or the answer of the prefetch's request) with its unit when the
     /// prefetch queued it, else the lease the last upload's answer carried, else a lease
     /// request now.
-    async fn next_lease(&self, worker_id: &str, stop: &Stop, carry: &mut Carry) -> (Retried<LeaseAnswer>, Option<Queued>) {
+    async fn next_lease(
+        &self,
+        worker_id: &str,
+        stop: &Stop,
+        carry: &mut Carry,
+    ) -> (Retried<LeaseAnswer>, Option<Queued>) {
         if let Some(p) = carry.prefetch.take()
             && let Some(fetched) = p.take(&mut carry.report.units_canceled).await
         {
@@ -301,7 +331,9 @@ impl Worker {
         }
         if let Some(from_upload) = carry.next_lease.take() {
             match from_upload_answer(&self.api, from_upload, stop).await {
-                Retried::Done(Some(lease)) => return (Retried::Done(LeaseAnswer::Lease(lease)), None),
+                Retried::Done(Some(lease)) => {
+                    return (Retried::Done(LeaseAnswer::Lease(lease)), None);
+                }
                 Retried::Done(None) => {}
                 _ => return (Retried::Stopped(None), None),
             }
@@ -311,7 +343,12 @@ impl Worker {
 
     /// Ends a prefetch when the loop has ended; a lease it still got is given back.
     async fn give_back(&self, prefetch: Prefetch, report: &mut WorkerReport) {
-        if let Some((Retried::Done(LeaseAnswer::Lease(lease)) | Retried::Stopped(Some(LeaseAnswer::Lease(lease))), _queued)) = prefetch.take(&mut report.units_canceled).await {
+        if let Some((
+            Retried::Done(LeaseAnswer::Lease(lease))
+            | Retried::Stopped(Some(LeaseAnswer::Lease(lease))),
+            _queued,
+        )) = prefetch.take(&mut report.units_canceled).await
+        {
             self.release(&lease.lease_id).await;
             report.units_canceled += 1;
         }
@@ -324,21 +361,32 @@ impl Worker {
     /// coordinator does not stop them; that coordinator mixes renderers anyway.
     async fn register(&self, stop: &Stop) -> anyhow::Result<Option<Registration>> {
         let threads = u32::try_from(self.pool.current_num_threads()).unwrap_or(u32::MAX);
-        let mut hello = WorkerHello { name: self.name.clone(), threads, renderer: tessera_render::renderer_id().to_owned() };
-        let mut answer = until_done("registration", stop, Duration::ZERO, || self.api.register(&hello)).await;
+        let mut hello = WorkerHello {
+            name: self.name.clone(),
+            threads,
+            renderer: tessera_render::renderer_id().to_owned(),
+        };
+        let mut answer =
+            until_done("registration", stop, Duration::ZERO, || self.api.register(&hello)).await;
         if let Retried::Fatal(e) = &answer
             && e.contains("unknown field `renderer`")
         {
-            warn!(coordinator = self.api.base(), "the coordinator predates renderer ids: registering without one (upgrade it to keep each job on one renderer)");
+            warn!(
+                coordinator = self.api.base(),
+                "the coordinator predates renderer ids: registering without one (upgrade it to keep each job on one renderer)"
+            );
             hello.renderer.clear();
-            answer = until_done("registration", stop, Duration::ZERO, || self.api.register(&hello)).await;
+            answer = until_done("registration", stop, Duration::ZERO, || self.api.register(&hello))
+                .await;
         }
         match answer {
             Retried::Done(reg) => {
                 info!(worker_id = %reg.worker_id, heartbeat_ms = reg.heartbeat_ms, coordinator = self.api.base(), renderer = %hello.renderer, "registered");
                 Ok(Some(reg))
             }
-            Retried::Fatal(e) => Err(anyhow!("the coordinator refused to register this worker: {e}")),
+            Retried::Fatal(e) => {
+                Err(anyhow!("the coordinator refused to register this worker: {e}"))
+            }
             Retried::Stopped(_) => Ok(None),
         }
     }

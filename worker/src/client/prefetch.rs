@@ -39,7 +39,14 @@ impl Prefetch {
     /// Its unit's scene is prepared only once `after` resolves (or its sender is dropped). With
     /// `from_upload`, the lease the previous unit's result answer carries is taken first, and
     /// only without one is a lease requested.
-    pub(super) fn start(worker: Arc<Worker>, worker_id: String, every: Duration, stop: Stop, after: oneshot::Receiver<()>, from_upload: Option<oneshot::Receiver<Box<Lease>>>) -> Prefetch {
+    pub(super) fn start(
+        worker: Arc<Worker>,
+        worker_id: String,
+        every: Duration,
+        stop: Stop,
+        after: oneshot::Receiver<()>,
+        from_upload: Option<oneshot::Receiver<Box<Lease>>>,
+    ) -> Prefetch {
         let (take, taken) = oneshot::channel();
         let task = tokio::spawn(fetch(worker, worker_id, every, stop, taken, after, from_upload));
         Prefetch { take, task }
@@ -50,7 +57,10 @@ impl Prefetch {
     /// not be queued: the loop tries again and reports why), the answer of a request still in
     /// flight (waited for), or None when there is nothing (the loop then asks itself).
     /// `dropped` counts held leases lost or given back meanwhile.
-    pub(super) async fn take(self, dropped: &mut u64) -> Option<(Retried<LeaseAnswer>, Option<Queued>)> {
+    pub(super) async fn take(
+        self,
+        dropped: &mut u64,
+    ) -> Option<(Retried<LeaseAnswer>, Option<Queued>)> {
         let _ = self.take.send(());
         match self.task.await {
             Ok(f) => {
@@ -88,7 +98,10 @@ async fn fetch(
     loop {
         let answer = match carried.take() {
             Some(lease) => Retried::Done(LeaseAnswer::Lease(lease)),
-            None => until_done("lease request (prefetch)", &stop, LEASE_DRAIN, || api.lease(&worker_id)).await,
+            None => {
+                until_done("lease request (prefetch)", &stop, LEASE_DRAIN, || api.lease(&worker_id))
+                    .await
+            }
         };
         let lease = match answer {
             Retried::Done(LeaseAnswer::Lease(lease)) => lease,
@@ -102,15 +115,28 @@ async fn fetch(
             }
             Retried::Stopped(Some(LeaseAnswer::Lease(late))) => {
                 release(api, &late.lease_id).await;
-                return Fetched { answer: Some((Retried::Stopped(None), None)), dropped: dropped + 1 };
+                return Fetched {
+                    answer: Some((Retried::Stopped(None), None)),
+                    dropped: dropped + 1,
+                };
             }
             other => return Fetched { answer: Some((other, None)), dropped },
         };
         idle.reset();
         match hold(&worker, lease, every, &stop, &mut taken, &mut after).await {
-            Held::Taken(lease, queued) => return Fetched { answer: Some((Retried::Done(LeaseAnswer::Lease(lease)), queued)), dropped },
+            Held::Taken(lease, queued) => {
+                return Fetched {
+                    answer: Some((Retried::Done(LeaseAnswer::Lease(lease)), queued)),
+                    dropped,
+                };
+            }
             Held::Lost => dropped += 1,
-            Held::GivenBack => return Fetched { answer: Some((Retried::Stopped(None), None)), dropped: dropped + 1 },
+            Held::GivenBack => {
+                return Fetched {
+                    answer: Some((Retried::Stopped(None), None)),
+                    dropped: dropped + 1,
+                };
+            }
         }
     }
 }
@@ -128,7 +154,14 @@ enum Held {
 /// Queues the prefetched lease's unit once `after` resolves, then keeps the lease alive until the loop takes it, it is
 /// lost, or shutdown comes. The loop taking it while the unit is still being queued (its scene
 /// building) waits for that to end, so a scene is never prepared twice.
-async fn hold(worker: &Worker, mut lease: Box<Lease>, every: Duration, stop: &Stop, taken: &mut oneshot::Receiver<()>, after: &mut Option<oneshot::Receiver<()>>) -> Held {
+async fn hold(
+    worker: &Worker,
+    mut lease: Box<Lease>,
+    every: Duration,
+    stop: &Stop,
+    taken: &mut oneshot::Receiver<()>,
+    after: &mut Option<oneshot::Receiver<()>>,
+) -> Held {
     let id = lease.lease_id.clone();
     debug!(lease = %id, job = %lease.job_id, tile = ?lease.tile, samples = ?lease.samples, "prefetched a unit");
     let deadline = Mutex::new(Instant::now() + Duration::from_millis(lease.deadline_ms));

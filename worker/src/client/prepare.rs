@@ -7,12 +7,12 @@ use super::Worker;
 use super::api::CallError;
 use super::cache::FrameKey;
 use super::retry::RETRY;
-use tessera_render::scene::animation::{self, AnimationInfo};
-use tessera_render::scene::{Preparation, Sequence};
-use tessera_render::tracer::Scene;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tessera_proto::Lease;
+use tessera_render::scene::animation::{self, AnimationInfo};
+use tessera_render::scene::{Preparation, Sequence};
+use tessera_render::tracer::Scene;
 use tracing::{debug, info, warn};
 
 const SCENE_ATTEMPTS: u32 = 5;
@@ -56,16 +56,22 @@ fn frame_time(animation: Option<usize>, frame: u32, fps: f64) -> Result<f64, Str
 
 impl Worker {
     /// The scene of the lease's frame, and how it was prepared.
-    pub(super) async fn frame_scene(&self, lease: &Lease) -> Result<(Arc<Scene>, Prepared), String> {
+    pub(super) async fn frame_scene(
+        &self,
+        lease: &Lease,
+    ) -> Result<(Arc<Scene>, Prepared), String> {
         let id = lease.scene_id.as_str();
         let (animations, mut parse_time) = self.animations_of(id).await?;
-        let animation = animation::resolve(&animations, lease.params.animation.as_deref()).map_err(|e| format!("scene {id}: {e}"))?;
+        let animation = animation::resolve(&animations, lease.params.animation.as_deref())
+            .map_err(|e| format!("scene {id}: {e}"))?;
         let time_s = frame_time(animation, lease.frame, lease.params.fps)?;
         let key = FrameKey { scene_id: id.to_owned(), animation, time_bits: time_s.to_bits() };
         let failure_key = format!("{key:?}");
         let (cached, previous, failed) = {
             let mut cache = self.scenes.lock().expect("scene cache lock");
-            let previous = animation.and_then(|_| cache.frames.latest(|k| k.scene_id == id && k.animation == animation));
+            let previous = animation.and_then(|_| {
+                cache.frames.latest(|k| k.scene_id == id && k.animation == animation)
+            });
             (cache.frames.get(&key), previous, cache.failures.get(&failure_key))
         };
         if let Some(scene) = cached {
@@ -126,12 +132,18 @@ impl Worker {
     /// The animations of file `id`, from the cache, else from the file (downloaded and parsed
     /// if need be), with the time parsing took (zero when cached).
     async fn animations_of(&self, id: &str) -> Result<(Arc<[AnimationInfo]>, Duration), String> {
-        if let Some(a) = self.scenes.lock().expect("scene cache lock").animations.get(&id.to_owned()) {
+        if let Some(a) =
+            self.scenes.lock().expect("scene cache lock").animations.get(&id.to_owned())
+        {
             return Ok((a, Duration::ZERO));
         }
         let (sequence, parse_time) = self.sequence(id).await?;
         let animations: Arc<[AnimationInfo]> = sequence.animations().into();
-        self.scenes.lock().expect("scene cache lock").animations.insert(id.to_owned(), animations.clone());
+        self.scenes
+            .lock()
+            .expect("scene cache lock")
+            .animations
+            .insert(id.to_owned(), animations.clone());
         Ok((animations, parse_time))
     }
 
@@ -149,7 +161,8 @@ impl Worker {
             return Err(e);
         }
         let bytes = self.download(id).await?;
-        let (pool, cache, id, hook) = (self.pool.clone(), self.scenes.clone(), id.to_owned(), self.prepare_hook);
+        let (pool, cache, id, hook) =
+            (self.pool.clone(), self.scenes.clone(), id.to_owned(), self.prepare_hook);
         tokio::task::spawn_blocking(move || {
             hook(Preparation::Build); // a file parsed is followed by its first build
             let started = Instant::now();

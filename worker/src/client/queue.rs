@@ -7,10 +7,10 @@
 //! process down. Dropping a [`Queued`] cancels its unit, so a lease given up before its unit
 //! started costs the pool (almost) nothing.
 use super::prepare::Prepared;
-use tessera_render::tracer::{RowQueue, TileSums};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
+use tessera_render::tracer::{RowQueue, TileSums};
 use tokio::sync::oneshot;
 
 /// What a queued unit answers: its sums, None when canceled, or why it failed.
@@ -64,7 +64,12 @@ impl Rows for RowQueue {
 /// Queues `unit` behind whatever the pool is doing. `busy_ns` gains the time each pool
 /// thread spent on the unit's rows, divided by the pool's thread count (so it stays within
 /// wall time however units overlap).
-pub(super) fn queue(pool: &rayon::ThreadPool, unit: impl Rows, prepared: Prepared, busy_ns: Arc<AtomicU64>) -> Queued {
+pub(super) fn queue(
+    pool: &rayon::ThreadPool,
+    unit: impl Rows,
+    prepared: Prepared,
+    busy_ns: Arc<AtomicU64>,
+) -> Queued {
     let (tx, result) = oneshot::channel();
     let threads = pool.current_num_threads().max(1);
     let (unit, tx) = (Arc::new(unit), Arc::new(Mutex::new(Some(tx))));
@@ -73,7 +78,8 @@ pub(super) fn queue(pool: &rayon::ThreadPool, unit: impl Rows, prepared: Prepare
         pool.spawn(move || {
             let started = Instant::now();
             let worked = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| unit.work()));
-            let ns = u64::try_from(started.elapsed().as_nanos() / threads as u128).unwrap_or(u64::MAX);
+            let ns =
+                u64::try_from(started.elapsed().as_nanos() / threads as u128).unwrap_or(u64::MAX);
             busy_ns.fetch_add(ns, Ordering::Relaxed);
             let answer = match worked {
                 Ok(false) => return,
@@ -102,11 +108,11 @@ fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use super::super::prepare::How;
-    use tessera_render::tracer::Tile;
+    use super::*;
     use std::sync::atomic::{AtomicBool, AtomicU32};
     use std::time::Duration;
+    use tessera_render::tracer::Tile;
 
     const CACHED: Prepared = Prepared { how: How::Cached, ms: 0.0 };
 
@@ -123,7 +129,15 @@ mod tests {
 
     impl StandIn {
         fn new(rows: u32, ms: u64, panic_on: Option<u32>) -> Arc<StandIn> {
-            Arc::new(StandIn { rows, next: AtomicU32::new(0), left: AtomicU32::new(rows), ms, panic_on, threads: Mutex::default(), canceled: AtomicBool::new(false) })
+            Arc::new(StandIn {
+                rows,
+                next: AtomicU32::new(0),
+                left: AtomicU32::new(rows),
+                ms,
+                panic_on,
+                threads: Mutex::default(),
+                canceled: AtomicBool::new(false),
+            })
         }
     }
 
@@ -170,10 +184,16 @@ mod tests {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
         let unit = StandIn::new(4, 1, Some(1));
         let mut failed = queue(&pool, unit.clone(), CACHED, Arc::default());
-        assert_eq!((&mut failed.result).await.unwrap(), Err("it panicked: a broken row".to_owned()));
+        assert_eq!(
+            (&mut failed.result).await.unwrap(),
+            Err("it panicked: a broken row".to_owned())
+        );
         assert!(unit.canceled.load(Ordering::Relaxed), "the unit's other rows are canceled");
         let mut next = queue(&pool, StandIn::new(4, 1, None), CACHED, Arc::default());
-        assert!(matches!((&mut next.result).await.unwrap(), Ok(Some(_))), "the pool takes the next unit");
+        assert!(
+            matches!((&mut next.result).await.unwrap(), Ok(Some(_))),
+            "the pool takes the next unit"
+        );
     }
 
     #[tokio::test]

@@ -82,7 +82,12 @@ pub(crate) const RETRY: Backoff = Backoff::new(Duration::from_millis(100), Durat
 /// Calls `call` until it succeeds or fails for good, backing off after transient failures,
 /// with no limit on attempts; gives up only on shutdown. A call in flight when shutdown comes
 /// gets `drain` more time to finish.
-pub(crate) async fn until_done<T, F, Fut>(what: &str, stop: &Stop, drain: Duration, mut call: F) -> Retried<T>
+pub(crate) async fn until_done<T, F, Fut>(
+    what: &str,
+    stop: &Stop,
+    drain: Duration,
+    mut call: F,
+) -> Retried<T>
 where
     F: FnMut() -> Fut,
     Fut: Future<Output = Result<T, CallError>>,
@@ -113,7 +118,11 @@ where
             Err(CallError::Transient(e)) => {
                 failures += 1;
                 let delay = backoff.next_delay();
-                tracing::warn!(attempt = failures, retry_in_ms = delay.as_millis() as u64, "{what} failed: {e}");
+                tracing::warn!(
+                    attempt = failures,
+                    retry_in_ms = delay.as_millis() as u64,
+                    "{what} failed: {e}"
+                );
                 if !stop.sleep(delay).await {
                     return Retried::Stopped(None);
                 }

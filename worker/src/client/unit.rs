@@ -4,10 +4,10 @@ use super::prepare::Prepared;
 use super::queue::{self, Queued};
 use super::retry::Stop;
 use super::{SHUTDOWN_GRACE, Worker, convert, render_settings};
-use tessera_render::tracer::{RowQueue, TileSums};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 use tessera_proto::Lease;
+use tessera_render::tracer::{RowQueue, TileSums};
 use tracing::{debug, error, info};
 
 /// How a unit ended.
@@ -28,7 +28,14 @@ pub(super) enum Unit {
 impl Worker {
     /// One unit under heartbeats: queued on the pool unless the prefetch did it (`queued`), then
     /// waited for. `scene_ready` is dropped once the unit is queued (or cannot be).
-    pub(super) async fn run_unit(&self, lease: &Lease, queued: Option<Queued>, scene_ready: tokio::sync::oneshot::Sender<()>, heartbeat_every: Duration, stop: &Stop) -> Unit {
+    pub(super) async fn run_unit(
+        &self,
+        lease: &Lease,
+        queued: Option<Queued>,
+        scene_ready: tokio::sync::oneshot::Sender<()>,
+        heartbeat_every: Duration,
+        stop: &Stop,
+    ) -> Unit {
         let id = lease.lease_id.as_str();
         let deadline = Mutex::new(Instant::now() + Duration::from_millis(lease.deadline_ms));
         debug!(lease = id, job = %lease.job_id, tile = ?lease.tile, samples = ?lease.samples, queued = queued.is_some(), "leased a unit");
@@ -89,7 +96,10 @@ impl Worker {
             return Unit::Canceled;
         }
         if abandoned {
-            info!(lease = id, "unit unfinished at the end of the shutdown grace: giving the lease back");
+            info!(
+                lease = id,
+                "unit unfinished at the end of the shutdown grace: giving the lease back"
+            );
             self.release(id).await;
             return Unit::Abandoned;
         }
@@ -113,7 +123,8 @@ impl Worker {
         let settings = check_unit(lease).map_err(|e| format!("cannot work this unit: {e}"))?;
         let (scene, prepared) = self.frame_scene(lease).await?;
         let (tile, samples) = (convert::tile(lease.tile), lease.samples[0]..lease.samples[1]);
-        let unit = RowQueue::new(scene, settings, tile, samples).map_err(|e| format!("cannot render: {e}"))?;
+        let unit = RowQueue::new(scene, settings, tile, samples)
+            .map_err(|e| format!("cannot render: {e}"))?;
         Ok(queue::queue(&self.pool, unit, prepared, self.busy_ns.clone()))
     }
 }
@@ -133,7 +144,10 @@ fn check_unit(lease: &Lease) -> Result<tessera_render::tracer::RenderSettings, S
         || t.x0.checked_add(t.w).is_none_or(|x| x > settings.width)
         || t.y0.checked_add(t.h).is_none_or(|y| y > settings.height)
     {
-        return Err(format!("tile {t:?} is empty or exceeds the {}×{} image", settings.width, settings.height));
+        return Err(format!(
+            "tile {t:?} is empty or exceeds the {}×{} image",
+            settings.width, settings.height
+        ));
     }
     Ok(settings)
 }

@@ -19,7 +19,9 @@ const SHUTDOWN_UPLOAD_WAIT: Duration = Duration::from_secs(5);
 /// How an upload ended.
 pub(super) enum Uploaded {
     /// Merged; `with_lease`: its answer carried the worker's next lease.
-    Merged { with_lease: bool },
+    Merged {
+        with_lease: bool,
+    },
     Stale,
     /// Refused as malformed or for another reason retrying cannot fix (logged as an error).
     Refused,
@@ -27,7 +29,11 @@ pub(super) enum Uploaded {
 
 /// The lease an upload's answer carried, once the upload has ended (None: it carried none);
 /// Stopped on shutdown, with the lease given back whether it has come or is still to come.
-pub(super) async fn from_upload_answer(api: &Api, mut answer: oneshot::Receiver<Box<Lease>>, stop: &Stop) -> Retried<Option<Box<Lease>>> {
+pub(super) async fn from_upload_answer(
+    api: &Api,
+    mut answer: oneshot::Receiver<Box<Lease>>,
+    stop: &Stop,
+) -> Retried<Option<Box<Lease>>> {
     tokio::select! {
         biased;
         () = stop.wait() => {
@@ -51,13 +57,25 @@ pub(super) async fn give_back_carried(api: &Api, mut answer: oneshot::Receiver<B
 /// then the coordinator has re-issued the unit, and a late result would be stale anyway). The
 /// upload asks for the worker's next lease too, and hands it to `next`; a lease nobody is
 /// waiting for any more (shutdown) is given back.
-pub(super) async fn upload(api: Arc<Api>, lease_id: String, body: bytes::Bytes, prepared: Prepared, deadline: Instant, next: oneshot::Sender<Box<Lease>>) -> Uploaded {
+pub(super) async fn upload(
+    api: Arc<Api>,
+    lease_id: String,
+    body: bytes::Bytes,
+    prepared: Prepared,
+    deadline: Instant,
+    next: oneshot::Sender<Box<Lease>>,
+) -> Uploaded {
     let id = lease_id.as_str();
     let mut backoff = RETRY;
     let mut failures = 0u32;
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
-        let error = match tokio::time::timeout(left, api.upload(id, body.clone(), prepared, !next.is_closed())).await {
+        let error = match tokio::time::timeout(
+            left,
+            api.upload(id, body.clone(), prepared, !next.is_closed()),
+        )
+        .await
+        {
             Ok(Ok(UploadAnswer::Merged(lease))) => {
                 debug!(lease = id, bytes = body.len(), next = ?lease.as_ref().map(|l| &l.lease_id), "result merged");
                 let with_lease = lease.is_some();
@@ -86,7 +104,11 @@ pub(super) async fn upload(api: Arc<Api>, lease_id: String, body: bytes::Bytes, 
         failures += 1;
         let now = Instant::now();
         if now >= deadline {
-            warn!(lease = id, attempts = failures, "result upload failed ({error}) and the lease's deadline has passed: giving up");
+            warn!(
+                lease = id,
+                attempts = failures,
+                "result upload failed ({error}) and the lease's deadline has passed: giving up"
+            );
             return Uploaded::Stale;
         }
         let delay = backoff.next_delay().min(deadline - now);
@@ -97,7 +119,11 @@ pub(super) async fn upload(api: Arc<Api>, lease_id: String, body: bytes::Bytes, 
 
 /// Waits for an upload and counts its outcome. Once shutdown is requested it gets at most
 /// [`SHUTDOWN_UPLOAD_WAIT`] more, then is abandoned.
-pub(super) async fn finish_upload(mut handle: JoinHandle<Uploaded>, stop: &Stop, report: &mut WorkerReport) {
+pub(super) async fn finish_upload(
+    mut handle: JoinHandle<Uploaded>,
+    stop: &Stop,
+    report: &mut WorkerReport,
+) {
     let joined = tokio::select! {
         joined = &mut handle => joined,
         () = stop.wait() => match tokio::time::timeout(SHUTDOWN_UPLOAD_WAIT, &mut handle).await {

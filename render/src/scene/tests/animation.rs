@@ -22,8 +22,14 @@ fn about_z(deg: f64) -> DVec4 {
 
 #[test]
 fn step_holds_each_keyframe_until_the_next() {
-    let t = track(Interpolation::Step, &[0.0, 1.0, 3.0], &[v3(1.0, 0.0, 0.0), v3(2.0, 0.0, 0.0), v3(4.0, 0.0, 0.0)]);
-    for (time, x) in [(-1.0, 1.0), (0.0, 1.0), (0.5, 1.0), (1.0, 2.0), (2.999, 2.0), (3.0, 4.0), (9.0, 4.0)] {
+    let t = track(
+        Interpolation::Step,
+        &[0.0, 1.0, 3.0],
+        &[v3(1.0, 0.0, 0.0), v3(2.0, 0.0, 0.0), v3(4.0, 0.0, 0.0)],
+    );
+    for (time, x) in
+        [(-1.0, 1.0), (0.0, 1.0), (0.5, 1.0), (1.0, 2.0), (2.999, 2.0), (3.0, 4.0), (9.0, 4.0)]
+    {
         assert_eq!(t.sample(time).x, x, "t = {time}");
     }
 }
@@ -47,7 +53,11 @@ fn linear_rotation_slerps_on_the_shortest_arc() {
     // The same end rotation written as −q: the shortest arc is still 22.5° at s = 1/4, where a
     // slerp without the sign flip would turn the long way round (−(360 − 90)/4 = −67.5°).
     let flipped = track(Interpolation::Linear, &[2.0, 6.0], &[about_z(0.0), -about_z(90.0)]);
-    assert!(close(flipped.sample_rotation(3.0).into(), about_z(22.5)), "{:?}", flipped.sample_rotation(3.0));
+    assert!(
+        close(flipped.sample_rotation(3.0).into(), about_z(22.5)),
+        "{:?}",
+        flipped.sample_rotation(3.0)
+    );
     // 170° → −170° (= 190°) is 20° apart: halfway is 180°, not 0°.
     let wrap = track(Interpolation::Linear, &[0.0, 1.0], &[about_z(170.0), about_z(-170.0)]);
     let mid = wrap.sample_rotation(0.5);
@@ -59,7 +69,14 @@ fn linear_rotation_slerps_on_the_shortest_arc() {
 fn cubic_spline_scales_tangents_by_the_keyframe_interval() {
     // Keys at 1 s and 3 s (Δt = 2). Triplets (in-tangent, value, out-tangent); the first
     // in-tangent and the last out-tangent are never used.
-    let values = [v3(9.0, 9.0, 9.0), v3(0.0, 0.0, 0.0), v3(1.0, 0.0, 0.0), v3(0.0, 2.0, 0.0), v3(2.0, 4.0, 0.0), v3(9.0, 9.0, 9.0)];
+    let values = [
+        v3(9.0, 9.0, 9.0),
+        v3(0.0, 0.0, 0.0),
+        v3(1.0, 0.0, 0.0),
+        v3(0.0, 2.0, 0.0),
+        v3(2.0, 4.0, 0.0),
+        v3(9.0, 9.0, 9.0),
+    ];
     let t = track(Interpolation::CubicSpline, &[1.0, 3.0], &values);
     // s = 1/2: h00 = 1/2, h10 = 1/8, h01 = 1/2, h11 = −1/8:
     // p = ½·0 + 2·⅛·(1,0,0) + ½·(2,4,0) − 2·⅛·(0,2,0) = (1.25, 1.5, 0)
@@ -83,14 +100,21 @@ fn cubic_spline_rotations_are_normalised() {
     // Zero tangents: at s = 1/2 the Hermite value is the mean of the two quaternions, whose
     // normalisation is the 45° rotation halfway between identity and 90° about z.
     let zero = DVec4::ZERO;
-    let t = track(Interpolation::CubicSpline, &[0.0, 0.5], &[zero, about_z(0.0), zero, zero, about_z(90.0), zero]);
+    let t = track(
+        Interpolation::CubicSpline,
+        &[0.0, 0.5],
+        &[zero, about_z(0.0), zero, zero, about_z(90.0), zero],
+    );
     let q = t.sample_rotation(0.25);
     assert!((q.length() - 1.0).abs() < 1e-12);
     assert!(close(q.into(), about_z(45.0)), "{q:?}");
 }
 
 fn infos(names: &[Option<&str>]) -> Vec<AnimationInfo> {
-    names.iter().map(|n| AnimationInfo { name: n.map(str::to_owned), duration_s: 1.0, channels: 1 }).collect()
+    names
+        .iter()
+        .map(|n| AnimationInfo { name: n.map(str::to_owned), duration_s: 1.0, channels: 1 })
+        .collect()
 }
 
 #[test]
@@ -104,12 +128,22 @@ fn animations_resolve_by_name_then_index() {
     assert_eq!(e, "no animation named run (the scene has: walk, 1 (unnamed), 2)");
     assert!(resolve(&two, Some("3")).is_err());
     assert_eq!(resolve(&[], None), Ok(None));
-    assert_eq!(resolve(&[], Some("0")).unwrap_err().0, "no animation named 0 (the scene has no animations)");
+    assert_eq!(
+        resolve(&[], Some("0")).unwrap_err().0,
+        "no animation named 0 (the scene has no animations)"
+    );
 }
 
 /// A one-triangle scene whose node 0 (the mesh) is driven by `channels` (JSON) reading floats
 /// from accessors 1 (times) and 2 (values): `times` and `values` are their contents.
-pub(super) fn animated_glb(times: &[f32], values: &[f32], output_type: &str, interpolation: &str, path: &str, extra_node: &str) -> Vec<u8> {
+pub(super) fn animated_glb(
+    times: &[f32],
+    values: &[f32],
+    output_type: &str,
+    interpolation: &str,
+    path: &str,
+    extra_node: &str,
+) -> Vec<u8> {
     let mut bin: Vec<u8> = Vec::new();
     for f in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0].iter().chain(times).chain(values) {
         bin.extend_from_slice(&f.to_le_bytes());
@@ -140,9 +174,19 @@ pub(super) fn animated_glb(times: &[f32], values: &[f32], output_type: &str, int
 
 #[test]
 fn a_translated_node_moves_its_triangles_and_the_static_pose_stays() {
-    let glb = animated_glb(&[0.0, 2.0], &[0.0, 0.0, 0.0, 4.0, 0.0, 0.0], "VEC3", "LINEAR", "translation", "");
+    let glb = animated_glb(
+        &[0.0, 2.0],
+        &[0.0, 0.0, 0.0, 4.0, 0.0, 0.0],
+        "VEC3",
+        "LINEAR",
+        "translation",
+        "",
+    );
     let seq = Sequence::parse(&glb, None).unwrap();
-    assert_eq!(seq.animations(), vec![AnimationInfo { name: Some("move".into()), duration_s: 2.0, channels: 1 }]);
+    assert_eq!(
+        seq.animations(),
+        vec![AnimationInfo { name: Some("move".into()), duration_s: 2.0, channels: 1 }]
+    );
     let parsed = seq.parsed_at(Some(0), 0.5).unwrap();
     assert_eq!(parsed.mesh.positions[0][1], glam::Vec3::new(2.0, 0.0, 0.0)); // (1, 0, 0) + (1, 0, 0)
     let rest = parse(&glb, None).unwrap();
@@ -156,18 +200,63 @@ fn refuses_what_it_cannot_animate_with_messages_naming_the_place() {
     let t2 = [0.0f32, 1.0];
     let xyz2 = [0.0f32; 6];
     let cases: Vec<(Vec<u8>, &str)> = vec![
-        (animated_glb(&t2, &[0.0, 1.0], "SCALAR", "LINEAR", "weights", ""), "animation 0 channel 0: morph-target weights are not supported"),
-        (animated_glb(&t2, &xyz2, "VEC3", "LINEAR", "translation", r#","skin":0"#), "animation 0 channel 0: node 0 is skinned"),
-        (animated_glb(&t2, &xyz2, "VEC3", "LINEAR", "translation", r#","matrix":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]"#), "node 0 has a matrix"),
-        (animated_glb(&[1.0, 1.0], &xyz2, "VEC3", "LINEAR", "translation", ""), "animation 0 channel 0: sampler 0: keyframe times must increase strictly"),
-        (animated_glb(&[0.0, f32::NAN], &xyz2, "VEC3", "LINEAR", "translation", ""), "keyframe time 1 is not finite"),
-        (animated_glb(&t2, &xyz2, "VEC3", "CUBICSPLINE", "translation", ""), "sampler 0: output count 2 should be 6"),
-        (animated_glb(&t2, &[0.0; 8], "VEC4", "LINEAR", "translation", ""), "output accessor has type Vec4"),
-        (animated_glb(&t2, &[0.0; 8], "VEC4", "LINEAR", "rotation", ""), "output value 0 is a zero quaternion"),
-        (animated_glb(&t2, &[0.0, 0.0, f32::INFINITY, 0.0, 0.0, 0.0], "VEC3", "LINEAR", "scale", ""), "output value 0 is not finite"),
+        (
+            animated_glb(&t2, &[0.0, 1.0], "SCALAR", "LINEAR", "weights", ""),
+            "animation 0 channel 0: morph-target weights are not supported",
+        ),
+        (
+            animated_glb(&t2, &xyz2, "VEC3", "LINEAR", "translation", r#","skin":0"#),
+            "animation 0 channel 0: node 0 is skinned",
+        ),
+        (
+            animated_glb(
+                &t2,
+                &xyz2,
+                "VEC3",
+                "LINEAR",
+                "translation",
+                r#","matrix":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]"#,
+            ),
+            "node 0 has a matrix",
+        ),
+        (
+            animated_glb(&[1.0, 1.0], &xyz2, "VEC3", "LINEAR", "translation", ""),
+            "animation 0 channel 0: sampler 0: keyframe times must increase strictly",
+        ),
+        (
+            animated_glb(&[0.0, f32::NAN], &xyz2, "VEC3", "LINEAR", "translation", ""),
+            "keyframe time 1 is not finite",
+        ),
+        (
+            animated_glb(&t2, &xyz2, "VEC3", "CUBICSPLINE", "translation", ""),
+            "sampler 0: output count 2 should be 6",
+        ),
+        (
+            animated_glb(&t2, &[0.0; 8], "VEC4", "LINEAR", "translation", ""),
+            "output accessor has type Vec4",
+        ),
+        (
+            animated_glb(&t2, &[0.0; 8], "VEC4", "LINEAR", "rotation", ""),
+            "output value 0 is a zero quaternion",
+        ),
+        (
+            animated_glb(
+                &t2,
+                &[0.0, 0.0, f32::INFINITY, 0.0, 0.0, 0.0],
+                "VEC3",
+                "LINEAR",
+                "scale",
+                "",
+            ),
+            "output value 0 is not finite",
+        ),
     ];
     for (glb, want) in cases {
-        let glb = if want.contains("skinned") { with_top_level(&glb, r#","skins":[{"joints":[0]}]"#) } else { glb };
+        let glb = if want.contains("skinned") {
+            with_top_level(&glb, r#","skins":[{"joints":[0]}]"#)
+        } else {
+            glb
+        };
         match Sequence::parse(&glb, None) {
             Ok(_) => panic!("accepted; expected {want:?}"),
             Err(e) => assert!(e.0.contains(want), "{:?} should contain {want:?}", e.0),
@@ -180,14 +269,25 @@ fn with_top_level(glb: &[u8], extra: &str) -> Vec<u8> {
     let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
     let json = std::str::from_utf8(&glb[20..20 + json_len]).unwrap().trim_end();
     let json = format!("{}{extra}}}", &json[..json.len() - 1]);
-    let bin_len = u32::from_le_bytes(glb[20 + json_len..24 + json_len].try_into().unwrap()) as usize;
+    let bin_len =
+        u32::from_le_bytes(glb[20 + json_len..24 + json_len].try_into().unwrap()) as usize;
     pack_glb(&json, &glb[28 + json_len..28 + json_len + bin_len])
 }
 
 #[test]
 fn an_animated_camera_moves() {
-    let glb = animated_glb(&[0.0, 1.0], &[0.0, 0.0, 0.0, 0.0, 0.0, -3.0], "VEC3", "LINEAR", "translation", r#","camera":0"#);
-    let glb = with_top_level(&glb, r#","cameras":[{"type":"perspective","perspective":{"yfov":0.7,"znear":0.01}}]"#);
+    let glb = animated_glb(
+        &[0.0, 1.0],
+        &[0.0, 0.0, 0.0, 0.0, 0.0, -3.0],
+        "VEC3",
+        "LINEAR",
+        "translation",
+        r#","camera":0"#,
+    );
+    let glb = with_top_level(
+        &glb,
+        r#","cameras":[{"type":"perspective","perspective":{"yfov":0.7,"znear":0.01}}]"#,
+    );
     let seq = Sequence::parse(&glb, None).unwrap();
     for (time, z) in [(0.0, 0.0), (0.5, -1.5), (1.0, -3.0), (2.0, -3.0)] {
         let scene = seq.scene_at(Some(0), time).unwrap();

@@ -1,7 +1,7 @@
 //! Every bundled scene reports the effects it calls for, and its gated render agrees with a
 //! render by the kernel with every effect compiled in, per pixel, within error bars.
-use crate::tracer::RenderOptions;
 use super::super::*;
+use crate::tracer::RenderOptions;
 use crate::tracer::effects::{Effects, KernelBits};
 use crate::tracer::integrator::tests::settings;
 use crate::tracer::{Estimator, PixelSums, Roulette, render_tile};
@@ -58,7 +58,9 @@ fn every_bundled_scene_reports_the_effects_of_the_scene_it_builds() {
         let parsed = parse(&std::fs::read(scene_path(&name)).unwrap(), None).unwrap();
         let reported = parsed.effects();
         let built = parsed.build();
-        let cameras = built.cameras.iter().fold(built.effects, |e, c| if c.has_depth_of_field() { e | Effects::DEPTH_OF_FIELD } else { e });
+        let cameras = built.cameras.iter().fold(built.effects, |e, c| {
+            if c.has_depth_of_field() { e | Effects::DEPTH_OF_FIELD } else { e }
+        });
         assert_eq!(cameras.names(), reported, "{name}");
         let uses_tree = built.light_tree_for(crate::tracer::LightSampler::Auto).is_some();
         assert_eq!(uses_tree, reported.contains(&"light_tree".to_string()), "{name}");
@@ -69,7 +71,8 @@ fn every_bundled_scene_reports_the_effects_of_the_scene_it_builds() {
 fn lamps_over_a_floor(lamps: &[(f32, f32)]) -> String {
     use base64::Engine;
     let square = |x: f32, y: f32, z: f32, s: f32, down: bool| {
-        let [a, b, c, d] = [[x - s, y, z - s], [x + s, y, z - s], [x + s, y, z + s], [x - s, y, z + s]];
+        let [a, b, c, d] =
+            [[x - s, y, z - s], [x + s, y, z - s], [x + s, y, z + s], [x - s, y, z + s]];
         if down { [a, b, c, a, c, d] } else { [a, c, b, a, d, c] }
     };
     let mut points: Vec<[f32; 3]> = square(0.0, 0.0, 0.0, 5.0, false).to_vec();
@@ -98,13 +101,24 @@ fn lamps_over_a_floor(lamps: &[(f32, f32)]) -> String {
 /// through the tree; one lamp (2) does neither. The upload's listing is the built scene's.
 #[test]
 fn a_few_lamps_apart_choose_through_the_tree_and_one_lamp_does_not() {
-    for (lamps, tree) in [(&[(-3.0, -3.0), (3.0, -3.0), (-3.0, 3.0), (3.0, 3.0)][..], true), (&[(0.0, 0.0)][..], false)] {
+    for (lamps, tree) in [
+        (&[(-3.0, -3.0), (3.0, -3.0), (-3.0, 3.0), (3.0, 3.0)][..], true),
+        (&[(0.0, 0.0)][..], false),
+    ] {
         let parsed = parse(lamps_over_a_floor(lamps).as_bytes(), None).unwrap();
         let reported = parsed.effects();
         let built = parsed.build();
-        assert_eq!(built.light_tree.as_ref().map(|t| t.len()), Some(2 * lamps.len()), "the scene holds a tree either way");
+        assert_eq!(
+            built.light_tree.as_ref().map(|t| t.len()),
+            Some(2 * lamps.len()),
+            "the scene holds a tree either way"
+        );
         assert_eq!(reported.contains(&"light_tree".to_string()), tree, "{lamps:?}: {reported:?}");
-        assert_eq!(built.light_tree_for(crate::tracer::LightSampler::Auto).is_some(), tree, "{lamps:?}");
+        assert_eq!(
+            built.light_tree_for(crate::tracer::LightSampler::Auto).is_some(),
+            tree,
+            "{lamps:?}"
+        );
         assert_eq!(built.effects.names(), reported);
     }
 }
@@ -119,12 +133,19 @@ fn the_textured_scene_binds_each_slot_in_its_colour_space_with_its_transform() {
     let base = tile.base_color_texture.unwrap();
     assert_eq!(base.transform, UvTransform::from_gltf(Vec2::ZERO, 0.0, Vec2::splat(2.0)));
     let normal = tile.normal_texture.unwrap();
-    assert_eq!((normal.scale, normal.texture.transform), (1.0, UvTransform::from_gltf(Vec2::ZERO, 0.0, Vec2::new(3.0, 1.0))));
+    assert_eq!(
+        (normal.scale, normal.texture.transform),
+        (1.0, UvTransform::from_gltf(Vec2::ZERO, 0.0, Vec2::new(3.0, 1.0)))
+    );
     let emissive = sign.emissive_texture.unwrap();
     let want = UvTransform::from_gltf(Vec2::new(0.25, 0.0), 30f32.to_radians(), Vec2::ONE);
     let t = emissive.transform;
     // The file stores the angle to 6 decimals.
-    assert!((t.x - want.x).length() + (t.y - want.y).length() + (t.offset - want.offset).length() < 1e-5, "{t:?}");
+    assert!(
+        (t.x - want.x).length() + (t.y - want.y).length() + (t.offset - want.offset).length()
+            < 1e-5,
+        "{t:?}"
+    );
     assert!(tile.metallic_roughness_texture.is_some());
     // The normal map is data: texel (0, 0) holds the generator's 8-bit value, not sRGB-decoded.
     let tilt = 30f64.to_radians() * (std::f64::consts::PI * 0.5 / 4.0).sin();
@@ -132,14 +153,21 @@ fn the_textured_scene_binds_each_slot_in_its_colour_space_with_its_transform() {
     let texel = scene.textures[normal.texture.texture as usize].texels[0];
     assert!((texel.z as f64 - blue).abs() < 1e-6, "{texel} vs {blue}");
     // The emissive sign is a textured area light, and no other light is.
-    let textured = scene.lights.iter().filter(|l| matches!(l, crate::tracer::light::Light::Triangle { texture: Some(_), .. })).count();
+    let textured = scene
+        .lights
+        .iter()
+        .filter(|l| matches!(l, crate::tracer::light::Light::Triangle { texture: Some(_), .. }))
+        .count();
     assert_eq!(textured, 2);
 }
 
 #[test]
 fn the_cornell_box_runs_the_matte_kernel() {
     let scene = load_path(&scene_path("cornell-box")).unwrap();
-    assert_eq!(scene.effects_for(scene.camera(None).unwrap(), glam::Vec3::ZERO).kernel(), KernelBits::MATTE);
+    assert_eq!(
+        scene.effects_for(scene.camera(None).unwrap(), glam::Vec3::ZERO).kernel(),
+        KernelBits::MATTE
+    );
 }
 
 /// Per-channel mean and variance of the mean of one pixel.
@@ -154,7 +182,16 @@ fn gated_and_all_effects_renders_agree_within_error_bars() {
     for name in bundled() {
         let scene = load_path(&scene_path(&name)).unwrap();
         let s = settings(Estimator::Mis, Roulette::default(), 24, glam::Vec3::ZERO);
-        let render = |k| render_tile(&scene, &s, s.full_frame(), 0..64, &RenderOptions { kernel: k, ..RenderOptions::default() }).unwrap();
+        let render = |k| {
+            render_tile(
+                &scene,
+                &s,
+                s.full_frame(),
+                0..64,
+                &RenderOptions { kernel: k, ..RenderOptions::default() },
+            )
+            .unwrap()
+        };
         let (gated, all) = (render(None), render(Some(KernelBits::ALL)));
         assert_eq!((gated.dropped, all.dropped), (0, 0), "{name}: non-finite samples");
         let (mut outliers, mut n) = (0, 0);
@@ -171,9 +208,15 @@ fn gated_and_all_effects_renders_agree_within_error_bars() {
         // At 4.5σ a normal difference is out 7 times in a million; allow for heavy tails (a
         // firefly in one render and none in the other) but not for a systematic difference.
         assert!(outliers <= n / 200, "{name}: {outliers} of {n} pixel channels differ beyond 4.5σ");
-        let (mg, ma) = (crate::tracer::render::frame_mean(&gated.pixels), crate::tracer::render::frame_mean(&all.pixels));
+        let (mg, ma) = (
+            crate::tracer::render::frame_mean(&gated.pixels),
+            crate::tracer::render::frame_mean(&all.pixels),
+        );
         for c in 0..3 {
-            assert!((mg[c] - ma[c]).abs() <= 0.05 * ma[c].max(1e-3), "{name}: frame means {mg:?} vs {ma:?}");
+            assert!(
+                (mg[c] - ma[c]).abs() <= 0.05 * ma[c].max(1e-3),
+                "{name}: frame means {mg:?} vs {ma:?}"
+            );
         }
     }
 }

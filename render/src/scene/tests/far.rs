@@ -13,7 +13,8 @@ use serde_json::{Value, json};
 /// The bundled scene `name` under a new root node translated by `offset`.
 fn bundled_moved(name: &str, offset: [f64; 3]) -> Scene {
     let path = format!("{}/../scenes/{name}.gltf", env!("CARGO_MANIFEST_DIR"));
-    let mut doc: Value = serde_json::from_slice(&std::fs::read(path).expect("bundled scene")).expect("JSON");
+    let mut doc: Value =
+        serde_json::from_slice(&std::fs::read(path).expect("bundled scene")).expect("JSON");
     let scene = doc["scene"].as_u64().unwrap_or(0) as usize;
     let roots = doc["scenes"][scene]["nodes"].clone();
     let nodes = doc["nodes"].as_array_mut().expect("nodes");
@@ -27,13 +28,16 @@ fn bundled_moved(name: &str, offset: [f64; 3]) -> Scene {
 fn far_scenes_are_rebased_and_near_ones_left_alone() {
     let here = bundled_moved("cornell-box", [0.0; 3]);
     let there = bundled_moved("cornell-box", [1e5, 1e5, -1e5]);
-    assert_eq!(here.mesh.positions, super::super::load_path(std::path::Path::new(&format!(
-        "{}/../scenes/cornell-box.gltf",
-        env!("CARGO_MANIFEST_DIR")
-    )))
-    .unwrap()
-    .mesh
-    .positions);
+    assert_eq!(
+        here.mesh.positions,
+        super::super::load_path(std::path::Path::new(&format!(
+            "{}/../scenes/cornell-box.gltf",
+            env!("CARGO_MANIFEST_DIR")
+        )))
+        .unwrap()
+        .mesh
+        .positions
+    );
     // Moved to the origin, the far copy keeps the light 0.1 mm under the ceiling.
     let ys = |s: &Scene| {
         let mut y: Vec<f32> = s.mesh.positions.iter().flatten().map(|p| p.y).collect();
@@ -49,7 +53,11 @@ fn far_scenes_are_rebased_and_near_ones_left_alone() {
 fn furnace_moved_up_to_1e6_away_renders_its_closed_form() {
     for offset in [1e4, 1e5, 1e6] {
         let scene = bundled_moved("furnace", [offset, -0.7 * offset, 0.3 * offset]);
-        let got = pooled(&render(&scene, &settings(Estimator::Mis, Roulette::default(), 8, Vec3::ZERO), 64));
+        let got = pooled(&render(
+            &scene,
+            &settings(Estimator::Mis, Roulette::default(), 8, Vec3::ZERO),
+            64,
+        ));
         assert_within_4_sigma(&format!("furnace at {offset:e}"), got, 0.5);
     }
 }

@@ -54,13 +54,18 @@ fn gltf_with_an_external_buffer_loads_from_its_directory() {
     std::fs::write(dir.join("quad data.bin"), strip_bin()).unwrap();
     std::fs::write(dir.join("quad.gltf"), strip_json(r#","uri":"quad%20data.bin""#, "")).unwrap();
     check_strip(&load_path(&dir.join("quad.gltf")).unwrap());
-    let err = load_bytes(strip_json(r#","uri":"quad%20data.bin""#, "").as_bytes(), None).unwrap_err();
+    let err =
+        load_bytes(strip_json(r#","uri":"quad%20data.bin""#, "").as_bytes(), None).unwrap_err();
     assert!(err.0.contains("buffer 0") && err.0.contains("single file"), "{err}");
 }
 
 #[test]
 fn points_and_lines_are_refused() {
-    let err = load_bytes(&glb(&strip_json("", "").replace(r#""mode":5"#, r#""mode":1"#), &strip_bin()), None).unwrap_err();
+    let err = load_bytes(
+        &glb(&strip_json("", "").replace(r#""mode":5"#, r#""mode":1"#), &strip_bin()),
+        None,
+    )
+    .unwrap_err();
     assert!(err.0.contains("not a triangle mode"), "{err}");
 }
 
@@ -70,11 +75,18 @@ fn base_colour_texture_is_decoded_from_srgb() {
     let img = image::RgbaImage::from_pixel(2, 2, image::Rgba([188, 188, 188, 255]));
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
     use base64::Engine;
-    let uri = format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png));
+    let uri =
+        format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png));
     let material = r#","baseColorTexture":{"index":0}}"#;
     let json = triangle_gltf(true, "")
-        .replace(r#""baseColorFactor":[0.5,0.5,0.5,1]}"#, &format!(r#""baseColorFactor":[0.5,0.5,0.5,1]{material}"#))
-        .replace(r#""cameras":"#, &format!(r#""textures":[{{"source":0}}],"images":[{{"uri":"{uri}"}}],"cameras":"#));
+        .replace(
+            r#""baseColorFactor":[0.5,0.5,0.5,1]}"#,
+            &format!(r#""baseColorFactor":[0.5,0.5,0.5,1]{material}"#),
+        )
+        .replace(
+            r#""cameras":"#,
+            &format!(r#""textures":[{{"source":0}}],"images":[{{"uri":"{uri}"}}],"cameras":"#),
+        );
     let scene = load_bytes(json.as_bytes(), None).unwrap();
     assert_eq!(scene.textures.len(), 1);
     let t = scene.textures[0].sample(Vec2::splat(0.5));
@@ -94,9 +106,15 @@ fn tangents_follow_the_node_transform_and_mirroring_flips_their_handedness() {
     bin.extend(f32_bytes(&[1., 0., 0., 1.].repeat(4)));
     let scene = load_bytes(&glb(&json, &bin), None).unwrap();
     // scale (−1, 1, 1) maps +x to −x and mirrors the frame: w flips from +1 to −1.
-    assert!(scene.mesh.tangents.iter().flatten().all(|t| *t == glam::Vec4::new(-1.0, 0.0, 0.0, -1.0)), "{:?}", scene.mesh.tangents);
+    assert!(
+        scene.mesh.tangents.iter().flatten().all(|t| *t == glam::Vec4::new(-1.0, 0.0, 0.0, -1.0)),
+        "{:?}",
+        scene.mesh.tangents
+    );
     // Without TANGENT anywhere, no tangents are stored (normal maps derive them from UVs).
-    assert!(load_bytes(&glb(&strip_json("", ""), &strip_bin()), None).unwrap().mesh.tangents.is_empty());
+    assert!(
+        load_bytes(&glb(&strip_json("", ""), &strip_bin()), None).unwrap().mesh.tangents.is_empty()
+    );
 }
 
 #[test]
@@ -105,11 +123,18 @@ fn a_texture_in_colour_and_data_slots_is_decoded_once_per_colour_space() {
     let img = image::RgbaImage::from_pixel(2, 2, image::Rgba([188, 188, 188, 255]));
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
     use base64::Engine;
-    let uri = format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png));
+    let uri =
+        format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png));
     let material = r#","baseColorTexture":{"index":0}},"normalTexture":{"index":0,"scale":0.5}"#;
     let json = triangle_gltf(true, "")
-        .replace(r#""baseColorFactor":[0.5,0.5,0.5,1]}"#, &format!(r#""baseColorFactor":[0.5,0.5,0.5,1]{material}"#))
-        .replace(r#""cameras":"#, &format!(r#""textures":[{{"source":0}}],"images":[{{"uri":"{uri}"}}],"cameras":"#));
+        .replace(
+            r#""baseColorFactor":[0.5,0.5,0.5,1]}"#,
+            &format!(r#""baseColorFactor":[0.5,0.5,0.5,1]{material}"#),
+        )
+        .replace(
+            r#""cameras":"#,
+            &format!(r#""textures":[{{"source":0}}],"images":[{{"uri":"{uri}"}}],"cameras":"#),
+        );
     let scene = load_bytes(json.as_bytes(), None).unwrap();
     assert_eq!(scene.textures.len(), 2, "one sRGB-decoded and one linear copy");
     let m = &scene.materials[0];
@@ -117,7 +142,10 @@ fn a_texture_in_colour_and_data_slots_is_decoded_once_per_colour_space() {
     assert_eq!(normal.scale, 0.5);
     let linear = scene.textures[normal.texture.texture as usize].sample(Vec2::splat(0.5)).x;
     let decoded = scene.textures[colour.texture as usize].sample(Vec2::splat(0.5)).x;
-    assert!((linear - 188.0 / 255.0).abs() < 1e-6 && (decoded - 0.5029).abs() < 2e-3, "{linear} {decoded}");
+    assert!(
+        (linear - 188.0 / 255.0).abs() < 1e-6 && (decoded - 0.5029).abs() < 2e-3,
+        "{linear} {decoded}"
+    );
 }
 
 #[test]
@@ -134,7 +162,10 @@ fn a_mesh_without_texture_coordinates_stores_none() {
 #[test]
 fn a_flat_mesh_keeps_one_normal_per_triangle_and_reads_the_same() {
     let flat = load_bytes(&glb(&strip_json("", ""), &strip_bin()), None).unwrap();
-    assert!(flat.mesh.normals.is_empty() && flat.mesh.flat_normals.len() == 2, "12 bytes a triangle, not 36");
+    assert!(
+        flat.mesh.normals.is_empty() && flat.mesh.flat_normals.len() == 2,
+        "12 bytes a triangle, not 36"
+    );
     assert_eq!(flat.mesh.normals_of(1), [Vec3::Z; 3]);
     assert!(flat.mesh.tangents.is_empty());
 }
@@ -152,15 +183,26 @@ fn a_mesh_stores_corners_only_from_the_first_triangle_that_needs_them() {
     let uv = [[Vec2::ONE; 3], [Vec2::ZERO; 3]];
     mesh.positions.push([Vec3::ZERO, Vec3::Z, Vec3::X]);
     mesh.push_attributes(n, Some(uv), None, 1);
-    assert_eq!((mesh.normals.len(), mesh.flat_normals.len(), mesh.uvs.len(), mesh.tangents.len()), (3, 0, 3, 0));
-    assert_eq!([mesh.normals_of(0), mesh.normals_of(1), mesh.normals_of(2)], [flat[0], flat[1], n], "the same normals read back");
+    assert_eq!(
+        (mesh.normals.len(), mesh.flat_normals.len(), mesh.uvs.len(), mesh.tangents.len()),
+        (3, 0, 3, 0)
+    );
+    assert_eq!(
+        [mesh.normals_of(0), mesh.normals_of(1), mesh.normals_of(2)],
+        [flat[0], flat[1], n],
+        "the same normals read back"
+    );
     assert_eq!([mesh.uvs_of(0), mesh.uvs_of(2)], [[[Vec2::ZERO; 3]; 2], uv]);
     mesh.push_flat([Vec3::ZERO, Vec3::X, Vec3::Y], 0);
     assert_eq!((mesh.normals.len(), mesh.uvs.len()), (4, 4), "per corner once needed");
     assert_eq!(mesh.material, [0, 0, 1, 0]);
 
     // A mesh whose vectors were filled directly compacts to the same reading.
-    let mut direct = crate::tracer::scene::Mesh { normals: vec![flat[0], flat[1]], uvs: vec![[[Vec2::ZERO; 3]; 2]; 2], ..Default::default() };
+    let mut direct = crate::tracer::scene::Mesh {
+        normals: vec![flat[0], flat[1]],
+        uvs: vec![[[Vec2::ZERO; 3]; 2]; 2],
+        ..Default::default()
+    };
     direct.compact();
     assert_eq!((direct.normals.len(), direct.flat_normals.len(), direct.uvs.len()), (0, 2, 0));
     assert_eq!([direct.normals_of(0), direct.normals_of(1)], flat);

@@ -26,16 +26,42 @@ enum Mutation {
 }
 
 /// Values that break counts, offsets, strides, indices and enums when written over a number.
-const EDGE_NUMBERS: &[&str] = &["0", "-1", "1", "3", "4", "5", "255", "65535", "2147483648", "4294967295", "4294967296", "18446744073709551615", "1e39", "-0", "0.5", "5126", "34962", "99999999"];
+const EDGE_NUMBERS: &[&str] = &[
+    "0",
+    "-1",
+    "1",
+    "3",
+    "4",
+    "5",
+    "255",
+    "65535",
+    "2147483648",
+    "4294967295",
+    "4294967296",
+    "18446744073709551615",
+    "1e39",
+    "-0",
+    "0.5",
+    "5126",
+    "34962",
+    "99999999",
+];
 
 fn mutation() -> impl Strategy<Value = Mutation> {
     prop_oneof![
         (any::<Index>(), 0u8..8).prop_map(|(i, b)| Mutation::Flip(i, b)),
         any::<Index>().prop_map(Mutation::Truncate),
-        (any::<Index>(), any::<Index>(), 1usize..64).prop_map(|(from, to, len)| Mutation::Splice { from, to, len }),
-        (any::<Index>(), prop::collection::vec(any::<u8>(), 1..16)).prop_map(|(i, b)| Mutation::Insert(i, b)),
-        (any::<Index>(), prop::sample::select(EDGE_NUMBERS)).prop_map(|(i, n)| Mutation::Number(i, n)),
-        (any::<Index>(), prop::sample::select(EDGE_NUMBERS)).prop_map(|(i, n)| Mutation::Number(i, n)),
+        (any::<Index>(), any::<Index>(), 1usize..64).prop_map(|(from, to, len)| Mutation::Splice {
+            from,
+            to,
+            len
+        }),
+        (any::<Index>(), prop::collection::vec(any::<u8>(), 1..16))
+            .prop_map(|(i, b)| Mutation::Insert(i, b)),
+        (any::<Index>(), prop::sample::select(EDGE_NUMBERS))
+            .prop_map(|(i, n)| Mutation::Number(i, n)),
+        (any::<Index>(), prop::sample::select(EDGE_NUMBERS))
+            .prop_map(|(i, n)| Mutation::Number(i, n)),
     ]
 }
 
@@ -72,7 +98,9 @@ pub(super) fn judge(bytes: &[u8]) -> Result<bool, String> {
     let outcome = std::panic::catch_unwind(|| load_bytes(bytes, None));
     match outcome {
         Err(_) => Err("the loader panicked".into()),
-        Ok(Err(e)) if e.0.contains("the glTF reader failed") => Err(format!("a panic was caught inside the loader: {e}")),
+        Ok(Err(e)) if e.0.contains("the glTF reader failed") => {
+            Err(format!("a panic was caught inside the loader: {e}"))
+        }
         Ok(Err(e)) if e.0.is_empty() => Err("an empty error message".into()),
         Ok(Err(_)) => Ok(false),
         Ok(Ok(scene)) if scene.mesh.positions.iter().flatten().all(|p| p.is_finite()) => Ok(true),
@@ -86,15 +114,23 @@ pub(super) fn to_glb(json: &str) -> Vec<u8> {
     let start = json.find("\"uri\":\"data:").expect("a data URI");
     let payload_at = start + json[start..].find(',').expect("comma") + 1;
     let payload_end = payload_at + json[payload_at..].find('"').expect("closing quote");
-    let bin = base64::engine::general_purpose::STANDARD.decode(&json[payload_at..payload_end]).expect("base64");
+    let bin = base64::engine::general_purpose::STANDARD
+        .decode(&json[payload_at..payload_end])
+        .expect("base64");
     let json = format!("{}{}", &json[..start].trim_end_matches(','), &json[payload_end + 1..]);
     super::super::pack_glb(&json, &bin)
 }
 
 fn seeds() -> Vec<(&'static str, Vec<u8>)> {
-    let cornell = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box.gltf")).expect("bundled scene");
+    let cornell =
+        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box.gltf"))
+            .expect("bundled scene");
     let triangle = triangle_gltf(true, "");
-    vec![("triangle.gltf", triangle.clone().into_bytes()), ("triangle.glb", to_glb(&triangle)), ("cornell-box.gltf", cornell)]
+    vec![
+        ("triangle.gltf", triangle.clone().into_bytes()),
+        ("triangle.glb", to_glb(&triangle)),
+        ("cornell-box.gltf", cornell),
+    ]
 }
 
 /// A stable name for a crasher file (SipHash with fixed keys).
@@ -110,8 +146,10 @@ fn digest(bytes: &[u8]) -> String {
 fn fuzz(name: &str, seed: &[u8], cases: u32) -> (u32, std::time::Duration) {
     assert_eq!(judge(seed), Ok(true), "{name}: the seed itself must load");
     let loaded = std::cell::Cell::new(0);
-    let config = Config { cases, failure_persistence: None, max_shrink_iters: 256, ..Config::default() };
-    let mut runner = TestRunner::new_with_rng(config, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
+    let config =
+        Config { cases, failure_persistence: None, max_shrink_iters: 256, ..Config::default() };
+    let mut runner =
+        TestRunner::new_with_rng(config, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
     let t0 = std::time::Instant::now();
     let result = runner.run(&prop::collection::vec(mutation(), 1..4), |muts| {
         let mut bytes = seed.to_vec();
@@ -120,7 +158,8 @@ fn fuzz(name: &str, seed: &[u8], cases: u32) -> (u32, std::time::Duration) {
         loaded.set(loaded.get() + u32::from(verdict == Ok(true)));
         if let Err(why) = verdict {
             let path = corpus_dir().join(format!("{name}-{}.bin", digest(&bytes)));
-            let _ = std::fs::create_dir_all(corpus_dir()).and_then(|_| std::fs::write(&path, &bytes));
+            let _ =
+                std::fs::create_dir_all(corpus_dir()).and_then(|_| std::fs::write(&path, &bytes));
             return Err(TestCaseError::fail(format!("{why}; kept as {}", path.display())));
         }
         Ok(())
@@ -137,7 +176,10 @@ fn mutated_scenes_load_or_fail_cleanly() {
     const CASES: u32 = 20_000;
     for (name, seed) in seeds() {
         let (loaded, took) = fuzz(name, &seed, CASES);
-        eprintln!("{name}: {CASES} mutants in {took:.2?} ({:.0}/s), {loaded} still loaded", CASES as f64 / took.as_secs_f64());
+        eprintln!(
+            "{name}: {CASES} mutants in {took:.2?} ({:.0}/s), {loaded} still loaded",
+            CASES as f64 / took.as_secs_f64()
+        );
     }
 }
 
@@ -147,7 +189,8 @@ fn the_crash_corpus_loads_or_fails_cleanly() {
 }
 
 fn replay(dir: &Path) {
-    let entries = std::fs::read_dir(dir).unwrap_or_else(|e| panic!("the crash corpus {}: {e}", dir.display()));
+    let entries = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("the crash corpus {}: {e}", dir.display()));
     let mut n = 0;
     for e in entries.flatten().filter(|e| e.path().extension().is_some_and(|x| x == "bin")) {
         let bytes = std::fs::read(e.path()).expect("corpus file");

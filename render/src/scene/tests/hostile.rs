@@ -5,7 +5,9 @@ use super::super::*;
 
 fn refused(bytes: &[u8], max_triangles: u64, expect: &str) {
     let t0 = std::time::Instant::now();
-    let err = parse_limited(bytes, None, max_triangles).err().unwrap_or_else(|| panic!("accepted; expected {expect:?}"));
+    let err = parse_limited(bytes, None, max_triangles)
+        .err()
+        .unwrap_or_else(|| panic!("accepted; expected {expect:?}"));
     assert!(err.0.contains(expect), "{:?} does not mention {expect:?}", err.0);
     assert!(t0.elapsed().as_secs_f64() < 1.0, "refusing took {:?}", t0.elapsed());
 }
@@ -50,15 +52,20 @@ fn a_node_reached_twice_is_refused() {
         .replace(r#""nodes":[{"mesh":0}"#, r#""nodes":[{"mesh":0,"children":[2]}"#)
         .replace(r#""translation":[0,0,3]}]"#, r#""translation":[0,0,3]},{"mesh":0}]"#);
     refused(shared.as_bytes(), DEFAULT_MAX_TRIANGLES, "node 2 appears more than once");
-    let cycle = triangle_gltf(true, "").replace(r#""nodes":[{"mesh":0}"#, r#""nodes":[{"mesh":0,"children":[0]}"#);
+    let cycle = triangle_gltf(true, "")
+        .replace(r#""nodes":[{"mesh":0}"#, r#""nodes":[{"mesh":0,"children":[0]}"#);
     refused(cycle.as_bytes(), DEFAULT_MAX_TRIANGLES, "node 0 appears more than once");
 }
 
 #[test]
 fn a_doubling_node_chain_is_refused_at_once() {
     // Node k lists node k+1 twice: 2⁶⁰ instances of the last node's mesh if walked naively.
-    let chain: Vec<String> = (2..62).map(|k| format!(r#"{{"children":[{},{}]}}"#, k + 1, k + 1)).collect();
-    let nodes = format!(r#""nodes":[{{"mesh":0}},{{"camera":0,"translation":[0,0,3]}},{},{{"mesh":0}}]"#, chain.join(","));
+    let chain: Vec<String> =
+        (2..62).map(|k| format!(r#"{{"children":[{},{}]}}"#, k + 1, k + 1)).collect();
+    let nodes = format!(
+        r#""nodes":[{{"mesh":0}},{{"camera":0,"translation":[0,0,3]}},{},{{"mesh":0}}]"#,
+        chain.join(",")
+    );
     let chain = triangle_gltf(true, "")
         .replace(r#""nodes":[0,1]"#, r#""nodes":[0,1,2]"#)
         .replace(r#""nodes":[{"mesh":0},{"camera":0,"translation":[0,0,3]}]"#, &nodes);
@@ -92,7 +99,11 @@ fn a_scene_too_deep_for_the_wide_bvh_still_finds_every_hit() {
         let origin = target + (glam::Vec3::new(rnd(), rnd(), rnd()) - 0.5) * 8.0;
         let ray = Ray::new(origin, (target - origin).normalize_or(glam::Vec3::Z));
         let expected = binary.intersect(&ray, f32::INFINITY).map(|h| h.t.to_bits());
-        assert_eq!(scene.accel.intersect(&ray, f32::INFINITY).map(|h| h.t.to_bits()), expected, "ray {k}");
+        assert_eq!(
+            scene.accel.intersect(&ray, f32::INFINITY).map(|h| h.t.to_bits()),
+            expected,
+            "ray {k}"
+        );
         assert_eq!(scene.accel.occluded(&ray, f32::INFINITY), expected.is_some(), "ray {k}");
         hits += expected.is_some() as u32;
     }

@@ -21,8 +21,11 @@ fn strip_parts(vertices: usize, nodes: usize, stride: usize) -> (String, Vec<u8>
         bin.resize(bin.len() + stride - 12, 0xAB);
     }
     let node_list: Vec<String> = (0..nodes).map(|n| n.to_string()).collect();
-    let node_json: Vec<String> = (0..nodes).map(|n| format!(r#"{{"mesh":0,"translation":[0,0,{}]}}"#, -(n as f32))).collect();
-    let stride_json = if stride == 12 { String::new() } else { format!(r#","byteStride":{stride}"#) };
+    let node_json: Vec<String> = (0..nodes)
+        .map(|n| format!(r#"{{"mesh":0,"translation":[0,0,{}]}}"#, -(n as f32)))
+        .collect();
+    let stride_json =
+        if stride == 12 { String::new() } else { format!(r#","byteStride":{stride}"#) };
     let json = format!(
         r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[{}]}}],"nodes":[{}],
         "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"mode":5}}]}}],
@@ -38,26 +41,45 @@ fn strip_parts(vertices: usize, nodes: usize, stride: usize) -> (String, Vec<u8>
 }
 
 fn assert_same_scene(a: &Scene, b: &Scene) {
-    let bits = |s: &Scene| s.mesh.positions.iter().flatten().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    let bits = |s: &Scene| {
+        s.mesh
+            .positions
+            .iter()
+            .flatten()
+            .flat_map(|p| p.to_array().map(f32::to_bits))
+            .collect::<Vec<_>>()
+    };
     assert_eq!(bits(a), bits(b));
     assert_eq!((a.mesh.len(), &a.mesh.material), (b.mesh.len(), &b.mesh.material));
-    assert_eq!((0..a.mesh.len()).map(|i| a.mesh.normals_of(i)).collect::<Vec<_>>(), (0..b.mesh.len()).map(|i| b.mesh.normals_of(i)).collect::<Vec<_>>());
+    assert_eq!(
+        (0..a.mesh.len()).map(|i| a.mesh.normals_of(i)).collect::<Vec<_>>(),
+        (0..b.mesh.len()).map(|i| b.mesh.normals_of(i)).collect::<Vec<_>>()
+    );
 }
 
 #[test]
 fn a_file_handed_over_gives_the_scene_its_borrowed_bytes_give() {
     let glb = strip_glb(50, 2, 12);
     let borrowed = Sequence::parse(&glb, None).unwrap().scene_at(None, 0.0).unwrap();
-    let owned = Sequence::parse_owned(glb, None, DEFAULT_MAX_TRIANGLES).unwrap().scene_at(None, 0.0).unwrap();
+    let owned = Sequence::parse_owned(glb, None, DEFAULT_MAX_TRIANGLES)
+        .unwrap()
+        .scene_at(None, 0.0)
+        .unwrap();
     assert_eq!(owned.mesh.len(), 2 * 48);
     assert_same_scene(&owned, &borrowed);
     // A .gltf (JSON, its buffer a data URI) has no binary chunk to keep.
     let json = tests::triangle_gltf(true, "").into_bytes();
-    let owned = Sequence::parse_owned(json.clone(), None, DEFAULT_MAX_TRIANGLES).unwrap().scene_at(None, 0.0).unwrap();
+    let owned = Sequence::parse_owned(json.clone(), None, DEFAULT_MAX_TRIANGLES)
+        .unwrap()
+        .scene_at(None, 0.0)
+        .unwrap();
     assert_same_scene(&owned, &load_bytes(&json, None).unwrap());
     // Errors are the same either way.
     let broken = strip_glb(50, 1, 12)[..100].to_vec();
-    assert_eq!(Sequence::parse_owned(broken.clone(), None, DEFAULT_MAX_TRIANGLES).unwrap_err(), Sequence::parse(&broken, None).unwrap_err());
+    assert_eq!(
+        Sequence::parse_owned(broken.clone(), None, DEFAULT_MAX_TRIANGLES).unwrap_err(),
+        Sequence::parse(&broken, None).unwrap_err()
+    );
 }
 
 #[test]
@@ -80,7 +102,11 @@ fn a_loaded_mesh_is_allocated_at_its_size() {
     let n = scene.mesh.len();
     assert_eq!(n, 3 * 998);
     let per_triangle = size_of::<[glam::Vec3; 3]>() + size_of::<glam::Vec3>() + size_of::<u32>();
-    assert_eq!(scene.mesh.heap_bytes(), n * per_triangle, "positions, one flat normal and a material each");
+    assert_eq!(
+        scene.mesh.heap_bytes(),
+        n * per_triangle,
+        "positions, one flat normal and a material each"
+    );
 }
 
 #[test]
@@ -88,14 +114,21 @@ fn the_mesh_is_sized_by_the_triangles_instanced_that_the_buffers_hold() {
     let count = |glb: &[u8]| {
         let gltf = gltf::Gltf::from_slice(glb).unwrap();
         let buffers = vec![gltf.blob.clone().unwrap()];
-        super::super::budget::instanced(&gltf.document.scenes().next().unwrap(), gltf.document.nodes().len(), &buffers)
+        super::super::budget::instanced(
+            &gltf.document.scenes().next().unwrap(),
+            gltf.document.nodes().len(),
+            &buffers,
+        )
     };
     assert_eq!(count(&strip_glb(10, 3, 12)), 3 * 8, "each instance counts");
     // An accessor claiming more vertices than its buffer holds reserves nothing (and fails to load).
     let (json, bin) = strip_parts(10, 3, 12);
     let claims_more = pack_glb(&json.replace(r#""count":10,"#, r#""count":99999,"#), &bin);
     assert_eq!(count(&claims_more), 0);
-    assert!(load_bytes(&claims_more, None).unwrap_err().0.contains("POSITION accessor"), "refused when read");
+    assert!(
+        load_bytes(&claims_more, None).unwrap_err().0.contains("POSITION accessor"),
+        "refused when read"
+    );
 }
 
 /// A large frame is posed, its face normals found and its tree made over several threads, in
@@ -115,7 +148,14 @@ fn a_large_scene_loads_the_same_on_one_thread_and_on_four() {
     assert_eq!((one.bounds_centre, one.bounds_radius), (four.bounds_centre, four.bounds_radius));
     for k in 0..2000 {
         let x = k as f32 * 0.2;
-        let ray = crate::tracer::ray::Ray::new(glam::Vec3::new(x, 0.5, 3.0), glam::Vec3::new(0.01, 0.001, -1.0).normalize());
-        assert_eq!(one.accel.intersect(&ray, f32::INFINITY), four.accel.intersect(&ray, f32::INFINITY), "ray {k}");
+        let ray = crate::tracer::ray::Ray::new(
+            glam::Vec3::new(x, 0.5, 3.0),
+            glam::Vec3::new(0.01, 0.001, -1.0).normalize(),
+        );
+        assert_eq!(
+            one.accel.intersect(&ray, f32::INFINITY),
+            four.accel.intersect(&ray, f32::INFINITY),
+            "ray {k}"
+        );
     }
 }

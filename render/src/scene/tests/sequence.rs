@@ -1,7 +1,7 @@
 //! Frames of the bundled animated Cornell box: the animation is found, frames differ, and a
 //! frame whose BVH was refitted from another frame renders the same bits as one built anew.
-use crate::tracer::RenderOptions;
 use super::super::*;
+use crate::tracer::RenderOptions;
 use crate::tracer::integrator::PathSettings;
 use crate::tracer::sampler::{SamplerKind, frame_seed};
 use crate::tracer::{RenderSettings, Tile, TileSums, render_tile};
@@ -23,30 +23,58 @@ fn render(scene: &Scene, frame: u32) -> TileSums {
         background: glam::Vec3::ZERO,
         camera: None,
     };
-    render_tile(scene, &settings, Tile { x0: 0, y0: 0, w: 48, h: 48 }, 0..4, &RenderOptions::default()).unwrap()
+    render_tile(
+        scene,
+        &settings,
+        Tile { x0: 0, y0: 0, w: 48, h: 48 },
+        0..4,
+        &RenderOptions::default(),
+    )
+    .unwrap()
 }
 
 /// Bit patterns of every sum, so NaN-free float sums compare exactly.
 fn bits(s: &TileSums) -> Vec<u64> {
-    s.pixels.iter().flat_map(|p| p.sum.iter().chain(&p.sum_sq).chain([&p.sum_lum_sq]).map(|x| x.to_bits()).chain([p.count])).collect()
+    s.pixels
+        .iter()
+        .flat_map(|p| {
+            p.sum
+                .iter()
+                .chain(&p.sum_sq)
+                .chain([&p.sum_lum_sq])
+                .map(|x| x.to_bits())
+                .chain([p.count])
+        })
+        .collect()
 }
 
 #[test]
 fn the_animated_cornell_box_has_its_animation() {
     let seq = animated();
     let info = seq.animations();
-    assert_eq!(info, vec![AnimationInfo { name: Some("roll".into()), duration_s: 1.0, channels: 3 }]);
+    assert_eq!(
+        info,
+        vec![AnimationInfo { name: Some("roll".into()), duration_s: 1.0, channels: 3 }]
+    );
     assert_eq!(animation::resolve(&info, None), Ok(Some(0)));
     assert_eq!(animation::resolve(&info, Some("roll")), Ok(Some(0)));
-    let parsed = parse(&std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cornell-animated.gltf")).unwrap(), None).unwrap();
+    let parsed = parse(
+        &std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cornell-animated.gltf"))
+            .unwrap(),
+        None,
+    )
+    .unwrap();
     assert_eq!(resolve_animation(&parsed, Some("0")), Ok(Some(0)));
-    assert!(resolve_animation(&parsed, Some("jump")).unwrap_err().0.contains("the scene has: roll"));
+    assert!(
+        resolve_animation(&parsed, Some("jump")).unwrap_err().0.contains("the scene has: roll")
+    );
 }
 
 #[test]
 fn frames_differ_where_the_ball_and_camera_move() {
     let seq = animated();
-    let (f0, f7) = (seq.parsed_at(Some(0), 0.0).unwrap(), seq.parsed_at(Some(0), 7.0 / FPS).unwrap());
+    let (f0, f7) =
+        (seq.parsed_at(Some(0), 0.0).unwrap(), seq.parsed_at(Some(0), 7.0 / FPS).unwrap());
     assert_eq!(f0.triangles(), f7.triangles());
     // The box's walls, blocks and light stay; every triangle of the ball (its two materials,
     // the last ones before the default) moves.
@@ -58,7 +86,8 @@ fn frames_differ_where_the_ball_and_camera_move() {
     }
     // The ball rolls in −x: its centre moves by 8 cm (0.14 m in 0.5 s, frame 7 at 0.29 s).
     let centre = |p: &Parsed| {
-        let ball: Vec<glam::Vec3> = (0..p.triangles()).filter(|&i| is_ball(i)).flat_map(|i| p.mesh.positions[i]).collect();
+        let ball: Vec<glam::Vec3> =
+            (0..p.triangles()).filter(|&i| is_ball(i)).flat_map(|i| p.mesh.positions[i]).collect();
         ball.iter().fold(glam::Vec3::ZERO, |a, v| a + *v) / ball.len() as f32
     };
     let (c0, c7) = (centre(&f0), centre(&f7));

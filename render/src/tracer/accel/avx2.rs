@@ -23,7 +23,12 @@ fn cpu_has_v3() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::is_x86_feature_detected as has;
-        has!("avx2") && has!("fma") && has!("bmi1") && has!("bmi2") && has!("lzcnt") && has!("popcnt")
+        has!("avx2")
+            && has!("fma")
+            && has!("bmi1")
+            && has!("bmi2")
+            && has!("lzcnt")
+            && has!("popcnt")
     }
     #[cfg(not(target_arch = "x86_64"))]
     false
@@ -36,7 +41,13 @@ impl Accel {
     /// # Safety
     /// The CPU must have the enabled features ([`detected`]).
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    pub(super) unsafe fn closest_avx2(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool, tally: &mut impl Tally) -> Option<Hit> {
+    pub(super) unsafe fn closest_avx2(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        keep: impl Fn(u32, f32, f32) -> bool,
+        tally: &mut impl Tally,
+    ) -> Option<Hit> {
         self.closest::<true>(ray, t_max, keep, tally)
     }
 
@@ -45,7 +56,13 @@ impl Accel {
     /// # Safety
     /// The CPU must have the enabled features ([`detected`]).
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    pub(super) unsafe fn blocked_avx2(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool, tally: &mut impl Tally) -> bool {
+    pub(super) unsafe fn blocked_avx2(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        keep: impl Fn(u32, f32, f32) -> bool,
+        tally: &mut impl Tally,
+    ) -> bool {
         self.blocked::<true>(ray, t_max, keep, tally)
     }
 }

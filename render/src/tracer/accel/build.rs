@@ -18,7 +18,11 @@ pub(super) fn tree_triangles(tris: &[[Vec3; 3]], keep: &[u32], scale: f32) -> Ve
 
 /// One triangle scaled into tree space, as obvhs takes it.
 pub(super) fn tree_triangle(t: &[Vec3; 3], scale: f32) -> Triangle {
-    Triangle { v0: Vec3A::from(t[0] * scale), v1: Vec3A::from(t[1] * scale), v2: Vec3A::from(t[2] * scale) }
+    Triangle {
+        v0: Vec3A::from(t[0] * scale),
+        v1: Vec3A::from(t[1] * scale),
+        v2: Vec3A::from(t[2] * scale),
+    }
 }
 
 /// The tree obvhs built: wide (its leaves packed, `accel_layout.rs`), or binary.
@@ -73,7 +77,9 @@ pub(super) fn wide_depth(bvh: &CwBvh) -> u32 {
 /// The node indices of `node`'s inner children, as obvhs's `child_node_index` finds them but
 /// without trusting the metadata (a slot below 24 is skipped, not an underflow): the trees
 /// [`wide_depth`] vets may be pathological.
-pub(super) fn inner_children(node: &obvhs::cwbvh::node::CwBvhNode) -> impl Iterator<Item = usize> + '_ {
+pub(super) fn inner_children(
+    node: &obvhs::cwbvh::node::CwBvhNode,
+) -> impl Iterator<Item = usize> + '_ {
     node.child_meta.iter().enumerate().filter_map(|(ch, meta)| {
         let slot = (meta & 0b11111).checked_sub(24).filter(|_| node.imask & (1 << ch) != 0)?;
         let before = (node.imask as u32 & !(u32::MAX << slot)).count_ones();
@@ -93,7 +99,11 @@ pub(super) fn tree_scale(tris: &[[Vec3; 3]], held: impl Fn(usize) -> bool + Sync
         }
         (lo, hi)
     };
-    let (lo, hi) = tris.par_chunks(RUN).enumerate().map(run).reduce(|| empty, |(l0, h0), (l1, h1)| (l0.min(l1), h0.max(h1)));
+    let (lo, hi) = tris
+        .par_chunks(RUN)
+        .enumerate()
+        .map(run)
+        .reduce(|| empty, |(l0, h0), (l1, h1)| (l0.min(l1), h0.max(h1)));
     scale_for_box(lo, hi)
 }
 

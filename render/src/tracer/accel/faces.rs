@@ -52,7 +52,11 @@ impl Faces {
         let mut normals = Vec::with_capacity(tris.len());
         let room = &mut normals.spare_capacity_mut()[..tris.len()];
         let union = |(l0, h0): (Vec3, Vec3), (l1, h1): (Vec3, Vec3)| (l0.min(l1), h0.max(h1));
-        let (lo, hi) = room.par_chunks_mut(PARALLEL_GRAIN).zip(tris.par_chunks(PARALLEL_GRAIN)).map(chunk).reduce(|| empty, union);
+        let (lo, hi) = room
+            .par_chunks_mut(PARALLEL_GRAIN)
+            .zip(tris.par_chunks(PARALLEL_GRAIN))
+            .map(chunk)
+            .reduce(|| empty, union);
         // SAFETY: the chunks cover the room, each slot written above.
         unsafe { normals.set_len(tris.len()) };
         Faces { normals, solid_box: lo.cmple(hi).all().then_some((lo, hi)) }
@@ -81,7 +85,9 @@ impl Degenerate {
 
     /// Bit i set where `degenerate(items[i])`; a word of 64 bits per task.
     fn marking<T: Sync>(items: &[T], degenerate: impl Fn(&T) -> bool + Sync) -> Degenerate {
-        let word = |c: &[T]| c.iter().enumerate().fold(0u64, |w, (k, x)| w | u64::from(degenerate(x)) << k);
+        let word = |c: &[T]| {
+            c.iter().enumerate().fold(0u64, |w, (k, x)| w | u64::from(degenerate(x)) << k)
+        };
         Degenerate(items.par_chunks(64).with_min_len(64).map(word).collect())
     }
 
@@ -104,16 +110,21 @@ mod tests {
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             (state >> 40) as f32 / (1u64 << 24) as f32 * 20.0 - 10.0
         };
-        let mut tris: Vec<[Vec3; 3]> = (0..3 * PARALLEL_GRAIN + 5).map(|_| std::array::from_fn(|_| Vec3::new(next(), next(), next()))).collect();
+        let mut tris: Vec<[Vec3; 3]> = (0..3 * PARALLEL_GRAIN + 5)
+            .map(|_| std::array::from_fn(|_| Vec3::new(next(), next(), next())))
+            .collect();
         for i in (0..tris.len()).step_by(7) {
             tris[i][2] = tris[i][1]; // two corners in one place: no area
         }
         tris[PARALLEL_GRAIN + 1] = [Vec3::splat(1e6); 3];
         let faces = Faces::of(&tris);
-        let expected: Vec<Vec3> = tris.iter().map(|t| triangle_normal(t).map_or(Vec3::ZERO, |n| n.as_vec3())).collect();
+        let expected: Vec<Vec3> =
+            tris.iter().map(|t| triangle_normal(t).map_or(Vec3::ZERO, |n| n.as_vec3())).collect();
         assert_eq!(faces.normals, expected);
-        let solid = tris.iter().zip(&expected).filter(|(_, n)| **n != Vec3::ZERO).flat_map(|(t, _)| *t);
-        let (lo, hi) = solid.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        let solid =
+            tris.iter().zip(&expected).filter(|(_, n)| **n != Vec3::ZERO).flat_map(|(t, _)| *t);
+        let (lo, hi) =
+            solid.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
         assert!(hi.max_element() < 10.0, "the far degenerate triangle is left out");
         assert_eq!(faces.solid_box, Some((lo, hi)));
         assert_eq!(Faces::of(&tris[..1]).solid_box, None, "a degenerate triangle alone has no box");

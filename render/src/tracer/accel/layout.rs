@@ -42,7 +42,8 @@ pub(super) fn pack_leaves(bvh: &mut CwBvh) {
             if slots.len() < at + count as usize {
                 slots.resize(at + count as usize, PAD);
             }
-            slots[at..at + count as usize].copy_from_slice(&old[first as usize..(first + count) as usize]);
+            slots[at..at + count as usize]
+                .copy_from_slice(&old[first as usize..(first + count) as usize]);
             node.child_meta[child] = (node.child_meta[child] & 0b1110_0000) | offset as u8;
         }
     }

@@ -11,18 +11,18 @@
 //!   tree is therefore built in a space scaled by a power of two (exact in floating point) that
 //!   makes the scene about 2¹² units across, where 1e-4 is below f32 resolution.
 use crate::tracer::ray::Ray;
+use build::{Topology, WIDE_STACK, to_wide, tree_scale, tree_triangles, wide_depth, wide_source};
+use faces::Degenerate;
+pub(crate) use faces::PARALLEL_GRAIN;
+pub use faces::{Faces, triangle_normal};
 use glam::{Vec3, Vec3A};
-use build::{Topology, WIDE_STACK, tree_scale, tree_triangles, wide_depth, wide_source, to_wide};
-use packet::{Packets, WatertightRay, for_packets, intersect_triangle};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::RayHit};
+use packet::{Packets, WatertightRay, for_packets, intersect_triangle};
+pub use refit::WORN;
+use stats::Tally;
+pub use stats::WalkCounts;
 use std::sync::Arc;
 use std::time::Duration;
-pub use faces::{Faces, triangle_normal};
-pub(crate) use faces::PARALLEL_GRAIN;
-use faces::Degenerate;
-pub use refit::WORN;
-pub use stats::WalkCounts;
-use stats::Tally;
 
 /// Which obvhs tree to build. The wide BVH is faster; the binary one is kept for cross-checks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -80,7 +80,12 @@ impl Accel {
     /// [`Faces`] normals, which tell the degenerate ones: a frame whose refit was refused has
     /// them already, for its shading. (A build without them holds only a bit per triangle, not
     /// the normals' 12 bytes, through its memory peak.)
-    pub fn build_with_normals(tris: &[[Vec3; 3]], normals: &[Vec3], kind: BvhKind, refittable: bool) -> Accel {
+    pub fn build_with_normals(
+        tris: &[[Vec3; 3]],
+        normals: &[Vec3],
+        kind: BvhKind,
+        refittable: bool,
+    ) -> Accel {
         assert_eq!(tris.len(), normals.len(), "one face normal per triangle");
         Accel::build_over(tris, &Degenerate::of(normals), kind, refittable)
     }
@@ -93,7 +98,12 @@ impl Accel {
     /// A refittable tree also holds the degenerate triangles with finite corners, never hit (as
     /// those that become degenerate in a refit), so that a later frame in which one is
     /// degenerate no more can still be refitted.
-    fn build_over(tris: &[[Vec3; 3]], degenerate: &Degenerate, kind: BvhKind, refittable: bool) -> Accel {
+    fn build_over(
+        tris: &[[Vec3; 3]],
+        degenerate: &Degenerate,
+        kind: BvhKind,
+        refittable: bool,
+    ) -> Accel {
         // A refittable tree holds every triangle with finite corners, another the solid ones.
         let held = |i: usize| match refittable {
             true => tris[i].iter().all(|v| v.is_finite()),
@@ -106,10 +116,23 @@ impl Accel {
         // (a refit, which gives hidden triangles empty boxes, scales by the others alone).
         let scale = tree_scale(tris, held);
         if keep.is_empty() {
-            return Accel { tree: Tree::Empty, tris: Packets::new(0, |_| [Vec3::ZERO; 3]), prim_ids: Arc::from([]), scale, refit: None, avx2: false };
+            return Accel {
+                tree: Tree::Empty,
+                tris: Packets::new(0, |_| [Vec3::ZERO; 3]),
+                prim_ids: Arc::from([]),
+                scale,
+                refit: None,
+                avx2: false,
+            };
         }
         let params = BvhBuildParams::medium_build();
-        let binary = || Topology::Binary(obvhs::bvh2::builder::build_bvh2_from_tris(&tree_triangles(tris, &keep, scale), params, &mut Duration::default()));
+        let binary = || {
+            Topology::Binary(obvhs::bvh2::builder::build_bvh2_from_tris(
+                &tree_triangles(tris, &keep, scale),
+                params,
+                &mut Duration::default(),
+            ))
+        };
         let topology = match kind {
             BvhKind::Wide => {
                 // A wide tree is walked with a fixed 32-entry stack (ours in accel_wide.rs, like
@@ -130,7 +153,11 @@ impl Accel {
             BvhKind::Binary => binary(),
         };
         // Padding slots (`layout::PAD`) are never tested: a zero triangle and index fill them.
-        let prim_ids: Vec<u32> = topology.slots().iter().map(|&k| if k == layout::PAD { layout::PAD } else { keep[k as usize] }).collect();
+        let prim_ids: Vec<u32> = topology
+            .slots()
+            .iter()
+            .map(|&k| if k == layout::PAD { layout::PAD } else { keep[k as usize] })
+            .collect();
         let packets = packets(&prim_ids, tris, scale, hidden);
         let (tree, wide) = match topology {
             Topology::Wide(mut bvh) => {
@@ -142,8 +169,22 @@ impl Accel {
             }
             Topology::Binary(b) => (Tree::Binary(b), None),
         };
-        let refit = refittable.then(|| Arc::new(refit::RefitBase { count: tris.len(), keep, wide, built_cost: tree.walk_cost() }));
-        Accel { tree, tris: packets, prim_ids: prim_ids.into(), scale, refit, avx2: avx2::detected() }
+        let refit = refittable.then(|| {
+            Arc::new(refit::RefitBase {
+                count: tris.len(),
+                keep,
+                wide,
+                built_cost: tree.walk_cost(),
+            })
+        });
+        Accel {
+            tree,
+            tris: packets,
+            prim_ids: prim_ids.into(),
+            scale,
+            refit,
+            avx2: avx2::detected(),
+        }
     }
 
     /// Closest hit with 0 < t < t_max.
@@ -155,7 +196,12 @@ impl Accel {
     /// Closest hit with 0 < t < t_max among those `keep(triangle, b1, b2)` accepts (an any-hit
     /// filter, e.g. alpha masks: rejected hits do not shorten the ray).
     #[inline]
-    pub fn intersect_where(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool) -> Option<Hit> {
+    pub fn intersect_where(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        keep: impl Fn(u32, f32, f32) -> bool,
+    ) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `avx2` is set only where the CPU has the features `closest_avx2` enables.
@@ -175,7 +221,13 @@ impl Accel {
     }
 
     #[inline(always)]
-    fn closest<const AVX: bool>(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool, tally: &mut impl Tally) -> Option<Hit> {
+    fn closest<const AVX: bool>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        keep: impl Fn(u32, f32, f32) -> bool,
+        tally: &mut impl Tally,
+    ) -> Option<Hit> {
         let (obvhs_ray, wt) = self.tree_ray(ray, t_max)?;
         // (slot, t, b1, b2) of the closest accepted candidate. The test accepts t ≤ tmax, so a
         // tie (a ray through a shared edge) comes here too: it goes to the smaller triangle
@@ -183,28 +235,34 @@ impl Accel {
         // rebuilt and a refitted tree give the same hit). Only t < tmax shortens the ray.
         let mut best: Option<(usize, f32, f32, f32)> = None;
         let mut consider = |tmax: &mut f32, slot: usize, t: f32, b1: f32, b2: f32| {
-            let closer = t < *tmax || (t == *tmax && best.is_some_and(|(s, ..)| self.prim_ids[slot] < self.prim_ids[s]));
+            let closer = t < *tmax
+                || (t == *tmax
+                    && best.is_some_and(|(s, ..)| self.prim_ids[slot] < self.prim_ids[s]));
             if closer && keep(self.prim_ids[slot], b1, b2) {
                 best = Some((slot, t, b1, b2));
                 *tmax = tmax.min(t);
             }
         };
         match &self.tree {
-            Tree::Wide(nodes) => wide::walk::<AVX, _>(nodes, obvhs_ray, tally, |r, base, bits, tally| {
-                for_packets(base, bits, |packet, lanes| {
-                    tally.packet(lanes);
-                    for (lane, t, b1, b2) in self.tris.test(&wt, packet, lanes, r.tmax).iter() {
-                        consider(&mut r.tmax, packet * 4 + lane, t, b1, b2);
-                    }
-                    false
+            Tree::Wide(nodes) => {
+                wide::walk::<AVX, _>(nodes, obvhs_ray, tally, |r, base, bits, tally| {
+                    for_packets(base, bits, |packet, lanes| {
+                        tally.packet(lanes);
+                        for (lane, t, b1, b2) in self.tris.test(&wt, packet, lanes, r.tmax).iter() {
+                            consider(&mut r.tmax, packet * 4 + lane, t, b1, b2);
+                        }
+                        false
+                    })
                 })
-            }),
+            }
             Tree::Binary(b) => {
                 // obvhs shortens the ray to the t returned when it is below tmax.
                 let mut hit = RayHit::none();
                 b.ray_traverse(obvhs_ray, &mut hit, |r: &obvhs::ray::Ray, slot: usize| {
                     let mut tmax = r.tmax;
-                    if let Some((t, b1, b2)) = intersect_triangle(&wt, &self.tris.triangle(slot), r.tmax) {
+                    if let Some((t, b1, b2)) =
+                        intersect_triangle(&wt, &self.tris.triangle(slot), r.tmax)
+                    {
                         consider(&mut tmax, slot, t, b1, b2);
                     }
                     tmax
@@ -224,7 +282,12 @@ impl Accel {
 
     /// Whether a hit `keep(triangle, b1, b2)` accepts blocks the ray on 0 < t < t_max.
     #[inline]
-    pub fn occluded_where(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool) -> bool {
+    pub fn occluded_where(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        keep: impl Fn(u32, f32, f32) -> bool,
+    ) -> bool {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: as in `intersect_where`.
@@ -234,9 +297,17 @@ impl Accel {
     }
 
     #[inline(always)]
-    fn blocked<const AVX: bool>(&self, ray: &Ray, t_max: f32, keep: impl Fn(u32, f32, f32) -> bool, tally: &mut impl Tally) -> bool {
+    fn blocked<const AVX: bool>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        keep: impl Fn(u32, f32, f32) -> bool,
+        tally: &mut impl Tally,
+    ) -> bool {
         let Some((obvhs_ray, wt)) = self.tree_ray(ray, t_max) else { return false };
-        let blocks = |slot: usize, t: f32, b1: f32, b2: f32, tmax: f32| t < tmax && keep(self.prim_ids[slot], b1, b2);
+        let blocks = |slot: usize, t: f32, b1: f32, b2: f32, tmax: f32| {
+            t < tmax && keep(self.prim_ids[slot], b1, b2)
+        };
         match &self.tree {
             Tree::Wide(nodes) => {
                 let mut found = false;
@@ -244,18 +315,21 @@ impl Accel {
                     found = for_packets(base, bits, |packet, lanes| {
                         tally.packet(lanes);
                         let c = self.tris.test(&wt, packet, lanes, r.tmax);
-                        c.iter().any(|(lane, t, b1, b2)| blocks(packet * 4 + lane, t, b1, b2, r.tmax))
+                        c.iter()
+                            .any(|(lane, t, b1, b2)| blocks(packet * 4 + lane, t, b1, b2, r.tmax))
                     });
                     found
                 });
                 found
             }
-            Tree::Binary(b) => !b.ray_traverse_miss(obvhs_ray, |r: &obvhs::ray::Ray, slot: usize| {
-                match intersect_triangle(&wt, &self.tris.triangle(slot), r.tmax) {
-                    Some((t, b1, b2)) if blocks(slot, t, b1, b2, r.tmax) => t,
-                    _ => f32::INFINITY,
-                }
-            }),
+            Tree::Binary(b) => {
+                !b.ray_traverse_miss(obvhs_ray, |r: &obvhs::ray::Ray, slot: usize| {
+                    match intersect_triangle(&wt, &self.tris.triangle(slot), r.tmax) {
+                        Some((t, b1, b2)) if blocks(slot, t, b1, b2, r.tmax) => t,
+                        _ => f32::INFINITY,
+                    }
+                })
+            }
             Tree::Empty => false,
         }
     }
@@ -319,11 +393,11 @@ mod avx2;
 mod build;
 mod faces;
 mod layout;
-mod stats;
-mod refit;
-mod wide;
-mod packet;
 mod node;
+mod packet;
+mod refit;
+mod stats;
+mod wide;
 
 #[cfg(test)]
 mod tests;

@@ -92,7 +92,9 @@ impl Packet {
     }
 
     pub(super) fn triangle(&self, lane: usize) -> [Vec3; 3] {
-        std::array::from_fn(|j| Vec3::new(self.c[j][0][lane], self.c[j][1][lane], self.c[j][2][lane]))
+        std::array::from_fn(|j| {
+            Vec3::new(self.c[j][0][lane], self.c[j][1][lane], self.c[j][2][lane])
+        })
     }
 
     /// The watertight test on the lanes set in `lanes`.
@@ -107,7 +109,8 @@ impl Packet {
             ((self.c[j][kx] - ray.o[0]) + ray.s[0] * dz, (self.c[j][ky] - ray.o[1]) + ray.s[1] * dz)
         };
         let (p0, p1, p2) = (vertex(0), vertex(1), vertex(2));
-        let mut e = [p1.0 * p2.1 - p1.1 * p2.0, p2.0 * p0.1 - p2.1 * p0.0, p0.0 * p1.1 - p0.1 * p1.0];
+        let mut e =
+            [p1.0 * p2.1 - p1.1 * p2.0, p2.0 * p0.1 - p2.1 * p0.0, p0.0 * p1.1 - p0.1 * p1.0];
         let zero = Vec4::ZERO;
         let on_edge = (e[0].cmpeq(zero) | e[1].cmpeq(zero) | e[2].cmpeq(zero)).bitmask() & lanes;
         if on_edge != 0 {
@@ -115,7 +118,8 @@ impl Packet {
         }
         let (p0, p1, p2) = ((p0.0, p0.1, dz(0)), (p1.0, p1.1, dz(1)), (p2.0, p2.1, dz(2)));
         let [e0, e1, e2] = e;
-        let outside = (e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero)) & (e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero));
+        let outside = (e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero))
+            & (e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero));
         let det = e0 + e1 + e2;
         let sz = ray.s[2];
         let (z0, z1, z2) = (p0.2 * sz, p1.2 * sz, p2.2 * sz);
@@ -144,7 +148,9 @@ impl Packet {
 #[cold]
 fn exact_edges(e: &mut [Vec4; 3], p: [(Vec4, Vec4); 3], lanes: u32) {
     for l in set_bits(lanes) {
-        let f = |a: (Vec4, Vec4), b: (Vec4, Vec4)| (a.0[l] as f64 * b.1[l] as f64 - a.1[l] as f64 * b.0[l] as f64) as f32;
+        let f = |a: (Vec4, Vec4), b: (Vec4, Vec4)| {
+            (a.0[l] as f64 * b.1[l] as f64 - a.1[l] as f64 * b.0[l] as f64) as f32
+        };
         e[0][l] = f(p[1], p[2]);
         e[1][l] = f(p[2], p[0]);
         e[2][l] = f(p[0], p[1]);
@@ -232,7 +238,13 @@ impl Packets {
     }
 
     #[inline(always)]
-    pub(super) fn test(&self, ray: &WatertightRay, packet: usize, lanes: u32, t_max: f32) -> Candidates {
+    pub(super) fn test(
+        &self,
+        ray: &WatertightRay,
+        packet: usize,
+        lanes: u32,
+        t_max: f32,
+    ) -> Candidates {
         self.packets[packet].test(ray, lanes, t_max)
     }
 }
@@ -260,7 +272,11 @@ pub(super) fn for_packets(base: u32, bits: u32, mut each: impl FnMut(usize, u32)
 
 /// Watertight test of one triangle: (t, b1, b2) for a hit with t conservatively > 0 and
 /// t ≤ t_max. The same operations as its lane of a packet test.
-pub(super) fn intersect_triangle(ray: &WatertightRay, v: &[Vec3; 3], t_max: f32) -> Option<(f32, f32, f32)> {
+pub(super) fn intersect_triangle(
+    ray: &WatertightRay,
+    v: &[Vec3; 3],
+    t_max: f32,
+) -> Option<(f32, f32, f32)> {
     let c = Packet::new(std::slice::from_ref(v)).test(ray, 1, t_max);
     (c.hits & 1 != 0).then_some((c.t.x, c.b1.x, c.b2.x))
 }

@@ -84,7 +84,9 @@ impl Accel {
         let scale = faces.solid_box.map_or(1.0, |(lo, hi)| scale_for_box(lo, hi));
         let packets = super::packets(&self.prim_ids, tris, scale, &super::Degenerate::of(normals));
         let tree = match (&self.tree, &base.wide) {
-            (Tree::Wide(_), Some(wide)) => Tree::Wide(super::node::Node::of_tree(wide, |s| packets.slot_box(s))),
+            (Tree::Wide(_), Some(wide)) => {
+                Tree::Wide(super::node::Node::of_tree(wide, |s| packets.slot_box(s)))
+            }
             (Tree::Binary(b), _) => {
                 let mut b = b.clone();
                 refit_boxes(&mut b, |s| packets.slot_box(s));
@@ -92,7 +94,14 @@ impl Accel {
             }
             _ => return None,
         };
-        Some(Accel { tree, tris: packets, prim_ids: Arc::clone(&self.prim_ids), scale, refit: Some(Arc::clone(base)), avx2: self.avx2 })
+        Some(Accel {
+            tree,
+            tris: packets,
+            prim_ids: Arc::clone(&self.prim_ids),
+            scale,
+            refit: Some(Arc::clone(base)),
+            avx2: self.avx2,
+        })
     }
 
     /// The wide tree's surface-area cost against its cost as built: 1 for a tree as built, more
@@ -125,7 +134,9 @@ impl Tree {
 fn refit_boxes(bvh2: &mut Bvh2, slot_box: impl Fn(usize) -> Aabb) {
     for node in bvh2.nodes.iter_mut().filter(|n| n.is_leaf()) {
         let first = node.first_index as usize;
-        let aabb = (first..first + node.prim_count as usize).map(&slot_box).fold(Aabb::INVALID, |a, b| a.union(&b));
+        let aabb = (first..first + node.prim_count as usize)
+            .map(&slot_box)
+            .fold(Aabb::INVALID, |a, b| a.union(&b));
         node.set_aabb(aabb);
     }
     bvh2.refit_all();

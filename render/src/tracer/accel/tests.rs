@@ -98,12 +98,16 @@ fn barycentrics_reconstruct_the_hit_point() {
 #[test]
 fn axis_parallel_rays_hit_thin_far_geometry() {
     // A sliver 1e-3 wide, 1e4 away along x; rays with tiny y/z direction components.
-    let tris = vec![[Vec3::new(1e4, -1e-3, -1.0), Vec3::new(1e4, 1e-3, -1.0), Vec3::new(1e4, 0.0, 1.0)]];
+    let tris =
+        vec![[Vec3::new(1e4, -1e-3, -1.0), Vec3::new(1e4, 1e-3, -1.0), Vec3::new(1e4, 0.0, 1.0)]];
     for kind in [BvhKind::Wide, BvhKind::Binary] {
         let accel = Accel::build(&tris, kind);
         for dy in [0.0, 1e-9, -1e-9, 1e-8, -1e-8] {
             let ray = Ray::new(Vec3::ZERO, Vec3::new(1.0, dy, 0.0));
-            assert_eq!(accel.intersect(&ray, f32::INFINITY).is_some(), brute_force(&tris, &ray).is_some());
+            assert_eq!(
+                accel.intersect(&ray, f32::INFINITY).is_some(),
+                brute_force(&tris, &ray).is_some()
+            );
             assert!(accel.intersect(&ray, f32::INFINITY).is_some(), "{kind:?} dy={dy}");
         }
     }
@@ -124,7 +128,6 @@ fn tiny_scenes_find_hits_closer_than_obvhs_epsilon() {
     }
 }
 
-
 /// Random triangles: the first `n` in a unit cube, each about 0.1 across.
 fn soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
     (0..n)
@@ -141,7 +144,11 @@ fn assert_same_hits(a: &Accel, b: &Accel, rng: &mut Rng, rays: usize, what: &str
         let o = rng.vec() * 3.0 - Vec3::splat(1.0);
         let d = (rng.vec() - Vec3::splat(0.5)).normalize_or(Vec3::X);
         let ray = Ray::new(o, d);
-        assert_eq!(a.intersect(&ray, f32::INFINITY), b.intersect(&ray, f32::INFINITY), "{what}: ray {k}");
+        assert_eq!(
+            a.intersect(&ray, f32::INFINITY),
+            b.intersect(&ray, f32::INFINITY),
+            "{what}: ray {k}"
+        );
         assert_eq!(a.occluded(&ray, 1.0), b.occluded(&ray, 1.0), "{what}: ray {k}");
     }
 }
@@ -156,7 +163,8 @@ fn a_refitted_tree_gives_the_hits_of_a_rebuilt_one() {
         .iter()
         .enumerate()
         .map(|(i, t)| {
-            let m = if i % 2 == 0 { glam::Mat3::from_rotation_y(1.3) } else { glam::Mat3::IDENTITY };
+            let m =
+                if i % 2 == 0 { glam::Mat3::from_rotation_y(1.3) } else { glam::Mat3::IDENTITY };
             t.map(|v| m * v * 2.5 + Vec3::new(0.3, -0.2, 0.1))
         })
         .collect();
@@ -167,7 +175,13 @@ fn a_refitted_tree_gives_the_hits_of_a_rebuilt_one() {
         assert_same_hits(&refit, &rebuilt, &mut rng, 20_000, &format!("{kind:?}"));
         // A refit of a refit still works, back to the start.
         let back = refit.refit(&tris).expect("refit again");
-        assert_same_hits(&back, &Accel::build(&tris, kind), &mut rng, 5000, &format!("{kind:?} back"));
+        assert_same_hits(
+            &back,
+            &Accel::build(&tris, kind),
+            &mut rng,
+            5000,
+            &format!("{kind:?} back"),
+        );
         // Refitted back onto the triangles it was built for, a wide tree is the built one.
         if let (Tree::Wide(built), Tree::Wide(again)) = (&first.tree, &back.tree) {
             assert_eq!(built, again, "refitted back: the built tree's nodes");
@@ -178,14 +192,19 @@ fn a_refitted_tree_gives_the_hits_of_a_rebuilt_one() {
     }
     // Exact ties (rays through shared edges of a grid) go to the same triangle in both trees.
     let g = grid(16);
-    let shifted: Vec<[Vec3; 3]> = g.iter().map(|t| t.map(|v| Vec3::new(v.y, v.x * 0.5, 0.25))).collect();
+    let shifted: Vec<[Vec3; 3]> =
+        g.iter().map(|t| t.map(|v| Vec3::new(v.y, v.x * 0.5, 0.25))).collect();
     let refit = Accel::build_refittable(&g, BvhKind::Wide).refit(&shifted).unwrap();
     let rebuilt = Accel::build(&shifted, BvhKind::Wide);
     for i in 0..=32 {
         for j in 0..=32 {
             let target = Vec3::new(i as f32 / 32.0, j as f32 / 64.0, 0.25);
             let ray = Ray::new(Vec3::new(0.3, 0.2, 2.0), target - Vec3::new(0.3, 0.2, 2.0));
-            assert_eq!(refit.intersect(&ray, f32::INFINITY), rebuilt.intersect(&ray, f32::INFINITY), "edge ray {i},{j}");
+            assert_eq!(
+                refit.intersect(&ray, f32::INFINITY),
+                rebuilt.intersect(&ray, f32::INFINITY),
+                "edge ray {i},{j}"
+            );
         }
     }
 }
@@ -204,12 +223,20 @@ fn a_refit_onto_scrambled_triangles_is_worn_and_a_wobble_is_not() {
     let scaled: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|v| v * 3.0)).collect();
     let wear = built.refit(&scaled).unwrap().wear().unwrap();
     assert!((wear - 1.0).abs() < 1e-4, "scaled by 3: wear {wear}");
-    let wobbled: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|v| v + 0.002 * Vec3::new((v.y * 40.0).sin(), (v.z * 40.0).sin(), (v.x * 40.0).sin()))).collect();
+    let wobbled: Vec<[Vec3; 3]> = tris
+        .iter()
+        .map(|t| {
+            t.map(|v| {
+                v + 0.002 * Vec3::new((v.y * 40.0).sin(), (v.z * 40.0).sin(), (v.x * 40.0).sin())
+            })
+        })
+        .collect();
     let wobble = built.refit(&wobbled).unwrap();
     assert!(wobble.wear().unwrap() < 1.1 && !wobble.worn(), "wobbled: wear {:?}", wobble.wear());
     // Swap every triangle with one elsewhere in the soup: the topology now groups far-apart
     // triangles, and its boxes span the scene.
-    let scrambled: Vec<[Vec3; 3]> = (0..tris.len()).map(|i| tris[(i * 1237) % tris.len()]).collect();
+    let scrambled: Vec<[Vec3; 3]> =
+        (0..tris.len()).map(|i| tris[(i * 1237) % tris.len()]).collect();
     let scramble = built.refit(&scrambled).unwrap();
     assert!(scramble.worn(), "scrambled: wear {:?}", scramble.wear());
     assert!(Accel::build_refittable(&scrambled, BvhKind::Wide).wear() == Some(1.0));
@@ -221,10 +248,18 @@ fn a_refit_onto_scrambled_triangles_is_worn_and_a_wobble_is_not() {
 fn a_refit_is_the_same_on_one_thread_and_on_four() {
     let mut rng = Rng(59);
     let tris = soup(&mut rng, 30_000);
-    let moved: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|v| v + 0.01 * Vec3::new((v.y * 30.0).sin(), (v.z * 30.0).sin(), 0.0))).collect();
+    let moved: Vec<[Vec3; 3]> = tris
+        .iter()
+        .map(|t| t.map(|v| v + 0.01 * Vec3::new((v.y * 30.0).sin(), (v.z * 30.0).sin(), 0.0)))
+        .collect();
     let refit_on = |threads| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| (Accel::build_refittable(&tris, BvhKind::Wide).refit(&moved).unwrap(), Faces::of(&moved).normals))
+        pool.install(|| {
+            (
+                Accel::build_refittable(&tris, BvhKind::Wide).refit(&moved).unwrap(),
+                Faces::of(&moved).normals,
+            )
+        })
     };
     let ((one, one_normals), (four, four_normals)) = (refit_on(1), refit_on(4));
     match (&one.tree, &four.tree) {
@@ -263,7 +298,9 @@ fn a_refit_keeps_triangles_that_became_degenerate_and_never_hits_them() {
         moved[i] = if i % 2 == 0 { [a; 3] } else { [a, b, a + (b - a) * 0.5] };
     }
     for kind in [BvhKind::Wide, BvhKind::Binary] {
-        let refit = Accel::build_refittable(&tris, kind).refit(&moved).expect("degenerate now: still refitted");
+        let refit = Accel::build_refittable(&tris, kind)
+            .refit(&moved)
+            .expect("degenerate now: still refitted");
         let rebuilt = Accel::build(&moved, kind);
         assert_same_hits(&refit, &rebuilt, &mut rng, 20_000, &format!("{kind:?}"));
         // Rays aimed at the collapsed triangles' former interiors.
@@ -271,11 +308,22 @@ fn a_refit_keeps_triangles_that_became_degenerate_and_never_hits_them() {
             let [a, b, c] = tris[i];
             let ray = Ray::new(Vec3::splat(-1.0), (a + b + c) / 3.0 - Vec3::splat(-1.0));
             let hit = refit.intersect(&ray, f32::INFINITY);
-            assert!(hit.is_none_or(|h| !(h.prim as usize).is_multiple_of(7)), "{kind:?}: hit collapsed triangle {hit:?}");
+            assert!(
+                hit.is_none_or(|h| !(h.prim as usize).is_multiple_of(7)),
+                "{kind:?}: hit collapsed triangle {hit:?}"
+            );
             assert_eq!(hit, rebuilt.intersect(&ray, f32::INFINITY));
         }
-        let back = Accel::build_refittable(&moved, kind).refit(&tris).expect("degenerate no more: still refitted");
-        assert_same_hits(&back, &Accel::build(&tris, kind), &mut rng, 20_000, &format!("{kind:?} back"));
+        let back = Accel::build_refittable(&moved, kind)
+            .refit(&tris)
+            .expect("degenerate no more: still refitted");
+        assert_same_hits(
+            &back,
+            &Accel::build(&tris, kind),
+            &mut rng,
+            20_000,
+            &format!("{kind:?} back"),
+        );
     }
 }
 
@@ -288,10 +336,17 @@ fn negative_zero_direction_components_hit_like_positive_zeros() {
         let accel = Accel::build(&tris, kind);
         for (i, j) in [(1, 1), (3, 5), (6, 2), (5, 7)] {
             let target = Vec3::new(i as f32 / 8.0 + 0.01, j as f32 / 8.0 + 0.02, 0.0);
-            for dir in [Vec3::new(-0.0, -0.0, -1.0), Vec3::new(0.0, -0.0, -1.0), Vec3::new(-0.0, 0.0, -1.0)] {
+            for dir in [
+                Vec3::new(-0.0, -0.0, -1.0),
+                Vec3::new(0.0, -0.0, -1.0),
+                Vec3::new(-0.0, 0.0, -1.0),
+            ] {
                 let ray = Ray::new(target + Vec3::Z, dir);
                 let hit = accel.intersect(&ray, f32::INFINITY);
-                assert!(hit.is_some_and(|h| (h.t - 1.0).abs() < 1e-6), "{kind:?}: ray {ray:?} missed");
+                assert!(
+                    hit.is_some_and(|h| (h.t - 1.0).abs() < 1e-6),
+                    "{kind:?}: ray {ray:?} missed"
+                );
                 assert!(accel.occluded(&ray, 2.0), "{kind:?}: shadow ray {ray:?} passed");
             }
         }
@@ -322,7 +377,11 @@ fn axis_rays_match_brute_force(tris: &[[Vec3; 3]], kind: BvhKind) {
         let want = brute_force(tris, &ray);
         let got = accel.intersect(&ray, f32::INFINITY).map(|h| (h.t, h.prim));
         assert_eq!(got, want, "{kind:?}, ray {k}: {ray:?}");
-        assert_eq!(accel.occluded(&ray, f32::INFINITY), want.is_some(), "{kind:?}, ray {k}: {ray:?}");
+        assert_eq!(
+            accel.occluded(&ray, f32::INFINITY),
+            want.is_some(),
+            "{kind:?}, ray {k}: {ray:?}"
+        );
         found += usize::from(want.is_some());
     }
     assert!(found > 500, "{kind:?}: only {found} rays hit");
@@ -337,7 +396,8 @@ fn the_avx2_queries_find_the_baseline_hits() {
         return;
     }
     let tris = triangle_soup(&mut Rng(21), 4000);
-    let (mut baseline, avx) = (Accel::build(&tris, BvhKind::Wide), Accel::build(&tris, BvhKind::Wide));
+    let (mut baseline, avx) =
+        (Accel::build(&tris, BvhKind::Wide), Accel::build(&tris, BvhKind::Wide));
     baseline.avx2 = false;
     assert!(avx.avx2);
     let mut rng = Rng(22);
@@ -345,7 +405,8 @@ fn the_avx2_queries_find_the_baseline_hits() {
     for k in 0..20_000 {
         let o = rng.vec() * 12.0 - Vec3::ONE;
         let d = if k % 4 == 3 {
-            let (z0, z1) = (if k & 8 == 0 { 0.0 } else { -0.0 }, if k & 16 == 0 { 0.0 } else { -0.0 });
+            let (z0, z1) =
+                (if k & 8 == 0 { 0.0 } else { -0.0 }, if k & 16 == 0 { 0.0 } else { -0.0 });
             [Vec3::new(1.0, z0, z1), Vec3::new(z0, -1.0, z1), Vec3::new(z0, z1, 1.0)][k % 3]
         } else {
             (rng.vec() - Vec3::splat(0.5)).normalize_or(Vec3::X)

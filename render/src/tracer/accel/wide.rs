@@ -8,9 +8,9 @@
 //!
 //! Depth: [`super::Accel`] only builds a wide tree shallower than [`STACK`] (see `wide_depth`),
 //! so the stack never fills; were it to, pushes saturate as obvhs's do (no overflow).
-use glam::{UVec2, Vec3A};
 use super::node::{Node, Slabs};
 use super::stats::Tally;
+use glam::{UVec2, Vec3A};
 use obvhs::faststack::FastStack;
 use obvhs::ray::Ray;
 use std::mem::MaybeUninit;
@@ -74,14 +74,21 @@ impl State {
     #[inline(always)]
     fn new(nodes: &[Node], dir: Vec3A) -> State {
         let root = if nodes.is_empty() { UVec2::ZERO } else { UVec2::new(0, 0x8000_0000) };
-        State { stack: Stack::new(), current_group: root, primitive_group: UVec2::ZERO, oct_inv4: octant_inv4(dir) }
+        State {
+            stack: Stack::new(),
+            current_group: root,
+            primitive_group: UVec2::ZERO,
+            oct_inv4: octant_inv4(dir),
+        }
     }
 }
 
 /// The ray's octant as obvhs's node test wants it (its `ray_get_octant_inv4`, private there).
 #[inline(always)]
 pub(super) fn octant_inv4(dir: Vec3A) -> u32 {
-    (if dir.x < 0.0 { 0 } else { 0x0404_0404 }) | (if dir.y < 0.0 { 0 } else { 0x0202_0202 }) | (if dir.z < 0.0 { 0 } else { 0x0101_0101 })
+    (if dir.x < 0.0 { 0 } else { 0x0404_0404 })
+        | (if dir.y < 0.0 { 0 } else { 0x0202_0202 })
+        | (if dir.z < 0.0 { 0 } else { 0x0101_0101 })
 }
 
 /// Walks the tree along `ray`, handing `leaf(ray, base, bits, tally)` the candidate triangles of
@@ -92,7 +99,12 @@ pub(super) fn octant_inv4(dir: Vec3A) -> u32 {
 /// Each step is reported to `tally` (`()` for the tracer's queries: no code). `AVX`: the node
 /// test for code compiled with AVX (`accel_avx2.rs`).
 #[inline(always)]
-pub(super) fn walk<const AVX: bool, T: Tally>(nodes: &[Node], mut ray: Ray, tally: &mut T, mut leaf: impl FnMut(&mut Ray, u32, u32, &mut T) -> bool) {
+pub(super) fn walk<const AVX: bool, T: Tally>(
+    nodes: &[Node],
+    mut ray: Ray,
+    tally: &mut T,
+    mut leaf: impl FnMut(&mut Ray, u32, u32, &mut T) -> bool,
+) {
     tally.ray();
     let mut state = State::new(nodes, ray.direction);
     let slabs = Slabs::new(&ray);

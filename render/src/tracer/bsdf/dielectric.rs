@@ -110,7 +110,11 @@ impl Dielectric {
         }
         let (s, eta) = oriented(self, wo);
         let wo = flip(wo, s);
-        let mut lobe = if self.is_smooth() { self.sample_smooth(wo, eta, u_lobe)? } else { self.sample_rough(wo, eta, u_lobe, u)? };
+        let mut lobe = if self.is_smooth() {
+            self.sample_smooth(wo, eta, u_lobe)?
+        } else {
+            self.sample_rough(wo, eta, u_lobe, u)?
+        };
         lobe.wi = flip(lobe.wi, s);
         (lobe.pdf > 0.0 && lobe.f.is_finite() && lobe.wi.is_finite()).then_some(lobe)
     }
@@ -124,7 +128,13 @@ impl Dielectric {
         let t = 1.0 - r;
         let reflected = Vec3::new(-wo.x, -wo.y, wo.z);
         if u_lobe < r || t <= 0.0 {
-            return Some(Lobe { wi: reflected, f: Vec3::splat(r / wo.z), pdf: r, specular: true, eta: 1.0 });
+            return Some(Lobe {
+                wi: reflected,
+                f: Vec3::splat(r / wo.z),
+                pdf: r,
+                specular: true,
+                eta: 1.0,
+            });
         }
         let (wi, etap) = if self.thin { (-wo, 1.0) } else { (refract(wo, Vec3::Z, eta)?, eta) };
         let f = self.tint * (t / (etap * etap) / wi.z.abs());
@@ -175,7 +185,8 @@ impl Dielectric {
             return Some((Vec3::splat(f), pdf));
         }
         let denom = (wi.dot(wm) + wo.dot(wm) / etap).powi(2);
-        let ft = d * (1.0 - r) * g * (wi.dot(wm) * wo.dot(wm) / (denom * cos_i * cos_o)).abs() / (etap * etap);
+        let ft = d * (1.0 - r) * g * (wi.dot(wm) * wo.dot(wm) / (denom * cos_i * cos_o)).abs()
+            / (etap * etap);
         let pdf = d_vis * wi.dot(wm).abs() / denom * (1.0 - r);
         Some((self.tint * ft, pdf))
     }

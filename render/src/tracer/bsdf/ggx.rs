@@ -38,9 +38,7 @@ pub struct Ggx {
 
 impl Ggx {
     pub fn new(alpha: f32) -> Ggx {
-        Ggx {
-            alpha: alpha.max(MIN_ALPHA),
-        }
+        Ggx { alpha: alpha.max(MIN_ALPHA) }
     }
 
     /// Clamped again here so a struct literal with a tiny alpha is still safe.
@@ -215,10 +213,8 @@ mod tests {
         for alpha in [0.01, 0.1, 0.5, 1.0] {
             for deg in INCIDENCE_DEG {
                 let (g, wo) = (Ggx::new(alpha), dir(deg));
-                let mut sample = || {
-                    g.sample_reflect(wo, rng.vec2())
-                        .map(|wi| (wo + wi).normalize())
-                };
+                let mut sample =
+                    || g.sample_reflect(wo, rng.vec2()).map(|wi| (wo + wi).normalize());
                 let pdf = |h: DVec3| chi2::half_vector_density(wo, h, |wi| g.pdf_reflect(wo, wi));
                 let name = format!("ggx α={alpha} θ={deg}");
                 chi2::assert_chi2(&name, &half_grid(alpha), 500_000, &mut sample, &pdf);
@@ -233,10 +229,7 @@ mod tests {
         for alpha in [1e-3, 0.01, 0.3, 1.0, 2.0] {
             let (g, a) = (Ggx::new(alpha), alpha as f64);
             for _ in 0..2000 {
-                let (wo, wi) = (
-                    uniform_hemisphere(rng.vec2()),
-                    uniform_hemisphere(rng.vec2()),
-                );
+                let (wo, wi) = (uniform_hemisphere(rng.vec2()), uniform_hemisphere(rng.vec2()));
                 let (o, i) = (wo.as_dvec3(), wi.as_dvec3());
                 let (lo, li) = (reference::lambda(a, o), reference::lambda(a, i));
                 assert!(close(g.lambda(wo), lo), "Λ α={alpha} {wo}");
@@ -264,10 +257,7 @@ mod tests {
                 };
                 let pdf = g.pdf_reflect(wo, wi) as f64;
                 let r = reference::pdf_reflect(alpha as f64, wo.as_dvec3(), wi.as_dvec3());
-                assert!(
-                    (pdf - r).abs() <= 1e-3 * r,
-                    "α={alpha} θ={deg}: {pdf} vs {r}"
-                );
+                assert!((pdf - r).abs() <= 1e-3 * r, "α={alpha} θ={deg}: {pdf} vs {r}");
                 assert!(g.eval_reflect(wo, wi).is_finite(), "α={alpha} θ={deg}");
             }
         }

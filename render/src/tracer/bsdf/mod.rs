@@ -108,19 +108,39 @@ impl Bsdf {
         }
         let wi = match self {
             // The commonest surface: its f and pdf straight from the lobe, as eval/pdf give them.
-            Bsdf::Lambert(b) => return b.sample_with_values(u).map(|(wi, f, pdf)| BsdfSample { wi, f, pdf, specular: false, eta: 1.0 }),
+            Bsdf::Lambert(b) => {
+                return b.sample_with_values(u).map(|(wi, f, pdf)| BsdfSample {
+                    wi,
+                    f,
+                    pdf,
+                    specular: false,
+                    eta: 1.0,
+                });
+            }
             Bsdf::Phong(b) => b.sample(wo, u_lobe, u),
             Bsdf::Pbr(b) => b.sample(wo, u_lobe, u),
             // The glass lobes carry their own f and pdf (deltas cannot be re-evaluated).
             Bsdf::Dielectric(b) => {
                 let l = b.sample(wo, u_lobe, u)?;
-                return Some(BsdfSample { wi: l.wi, f: l.f, pdf: l.pdf, specular: l.specular, eta: l.eta });
+                return Some(BsdfSample {
+                    wi: l.wi,
+                    f: l.f,
+                    pdf: l.pdf,
+                    specular: l.specular,
+                    eta: l.eta,
+                });
             }
         }?;
         // Re-evaluating instead of carrying values out of the lobe samplers makes the
         // sample agree exactly with eval/pdf, mixture terms included.
         let (f, pdf) = (self.eval(wo, wi), self.pdf(wo, wi));
-        (pdf > 0.0 && pdf.is_finite() && f.is_finite()).then_some(BsdfSample { wi, f, pdf, specular: false, eta: 1.0 })
+        (pdf > 0.0 && pdf.is_finite() && f.is_finite()).then_some(BsdfSample {
+            wi,
+            f,
+            pdf,
+            specular: false,
+            eta: 1.0,
+        })
     }
 
     /// Uniform hemisphere sampling, for the seed's naive estimator.
@@ -169,17 +189,11 @@ pub(crate) mod check {
                 let Some(s) = b.sample(wo, rng.f32(), rng.vec2()) else {
                     continue;
                 };
-                assert!(
-                    s.wi.z > 0.0 && (s.wi.length() - 1.0).abs() < 1e-5,
-                    "{b:?}: {s:?}"
-                );
+                assert!(s.wi.z > 0.0 && (s.wi.length() - 1.0).abs() < 1e-5, "{b:?}: {s:?}");
                 let (f, pdf) = (b.eval(wo, s.wi), b.pdf(wo, s.wi));
                 let f_err = (s.f - f).abs().max_element();
                 assert!(f_err <= 1e-4 * f.max_element(), "{b:?}: f {s:?} vs {f}");
-                assert!(
-                    (s.pdf - pdf).abs() <= 1e-4 * pdf,
-                    "{b:?}: pdf {s:?} vs {pdf}"
-                );
+                assert!((s.pdf - pdf).abs() <= 1e-4 * pdf, "{b:?}: pdf {s:?} vs {pdf}");
             }
         }
     }
@@ -188,14 +202,9 @@ pub(crate) mod check {
     /// None or a finite sample.
     pub fn boundary(b: &Bsdf) {
         for wo in [dir(0.0), dir(45.0), dir(89.999), Vec3::X, -Vec3::Z] {
-            for (ul, u) in [0.0, 0.5, U_MAX]
-                .into_iter()
-                .flat_map(|l| edge_inputs().map(|u| (l, u)))
+            for (ul, u) in [0.0, 0.5, U_MAX].into_iter().flat_map(|l| edge_inputs().map(|u| (l, u)))
             {
-                for s in [b.sample(wo, ul, u), b.sample_uniform(wo, u)]
-                    .into_iter()
-                    .flatten()
-                {
+                for s in [b.sample(wo, ul, u), b.sample_uniform(wo, u)].into_iter().flatten() {
                     assert!(s.wi.is_finite() && s.f.is_finite(), "{b:?} {wo} {u}: {s:?}");
                     assert!(s.pdf.is_finite() && s.pdf > 0.0, "{b:?} {wo} {u}: {s:?}");
                     assert!(b.eval(wo, s.wi).is_finite() && b.pdf(wo, s.wi).is_finite());
@@ -237,10 +246,7 @@ pub(crate) mod check {
     }
 
     pub fn chi2(name: &str, b: &Bsdf, wo: Vec3, domain: Domain, rng: &mut Rng) {
-        let mut sample = || {
-            b.sample(wo, rng.f32(), rng.vec2())
-                .map(|s| domain.of(wo, s.wi))
-        };
+        let mut sample = || b.sample(wo, rng.f32(), rng.vec2()).map(|s| domain.of(wo, s.wi));
         let pdf = |x: DVec3| domain.pdf(b, wo, x);
         chi2::assert_chi2(name, &domain.grid(), 500_000, &mut sample, &pdf);
     }
@@ -250,13 +256,9 @@ pub(crate) mod check {
         let (mass, err) = chi2::integrate_sphere(&domain.grid(), &|x| domain.pdf(b, wo, x));
         assert!(mass <= 1.0 + err, "{name}: pdf integrates to {mass} > 1");
         let n = 200_000;
-        let hits = (0..n)
-            .filter(|_| b.sample(wo, rng.f32(), rng.vec2()).is_some())
-            .count();
+        let hits = (0..n).filter(|_| b.sample(wo, rng.f32(), rng.vec2()).is_some()).count();
         let rate = hits as f64 / n as f64;
-        let sigma = (mass * (1.0 - mass) / n as f64)
-            .sqrt()
-            .max(f64::MIN_POSITIVE);
+        let sigma = (mass * (1.0 - mass) / n as f64).sqrt().max(f64::MIN_POSITIVE);
         let z = ((rate - mass).abs() - err).max(0.0) / sigma;
         let detail = format!("∫pdf = {mass:.5} ± {err:.1e}, success rate {rate:.5}");
         chi2::assert_p(name, chi2::normal_p(z), &detail);
@@ -300,10 +302,7 @@ pub(crate) mod check {
 
     /// Two independent uniform directions in the upper hemisphere.
     pub fn random_pair(rng: &mut Rng) -> (Vec3, Vec3) {
-        (
-            uniform_hemisphere(rng.vec2()),
-            uniform_hemisphere(rng.vec2()),
-        )
+        (uniform_hemisphere(rng.vec2()), uniform_hemisphere(rng.vec2()))
     }
 
     /// Tests that the Monte Carlo albedo (green channel) at `wo` equals a quadrature
@@ -311,11 +310,8 @@ pub(crate) mod check {
     pub fn albedo_is(name: &str, b: &Bsdf, wo: Vec3, (reference, err): (f64, f64), rng: &mut Rng) {
         let s = &albedo(b, wo, 200_000, rng)[1];
         let z = ((s.mean() - reference).abs() - err).max(0.0) / s.std_error();
-        let detail = format!(
-            "MC {:.5} ± {:.5}, quadrature {reference:.5}",
-            s.mean(),
-            s.std_error()
-        );
+        let detail =
+            format!("MC {:.5} ± {:.5}, quadrature {reference:.5}", s.mean(), s.std_error());
         chi2::assert_p(name, chi2::normal_p(z), &detail);
     }
 

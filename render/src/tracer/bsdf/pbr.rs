@@ -65,14 +65,7 @@ pub struct Pbr {
 impl Pbr {
     /// Core glTF parameters with the KHR_materials_specular / _ior defaults.
     pub fn new(base_color: Vec3, metallic: f32, roughness: f32) -> Pbr {
-        Pbr {
-            base_color,
-            metallic,
-            roughness,
-            specular: 1.0,
-            specular_color: Vec3::ONE,
-            ior: 1.5,
-        }
+        Pbr { base_color, metallic, roughness, specular: 1.0, specular_color: Vec3::ONE, ior: 1.5 }
     }
 
     fn ggx(&self) -> Ggx {
@@ -135,11 +128,7 @@ impl Pbr {
             return diffuse;
         }
         let spec = self.ggx().pdf_reflect(wo, wi);
-        if p == 1.0 {
-            spec
-        } else {
-            p * spec + (1.0 - p) * diffuse
-        }
+        if p == 1.0 { spec } else { p * spec + (1.0 - p) * diffuse }
     }
 
     pub(super) fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<Vec3> {

@@ -41,15 +41,11 @@ impl Phong {
     pub fn new(kd: Vec3, ks: Vec3, n: f32) -> Result<Phong, String> {
         for (name, v) in [("kd", kd), ("ks", ks)] {
             if !v.is_finite() || v.min_element() < 0.0 {
-                return Err(format!(
-                    "Phong: {name} = {v} must be finite and non-negative"
-                ));
+                return Err(format!("Phong: {name} = {v} must be finite and non-negative"));
             }
         }
         if !(n.is_finite() && n >= 0.0) {
-            return Err(format!(
-                "Phong: exponent n = {n} must be finite and non-negative"
-            ));
+            return Err(format!("Phong: exponent n = {n} must be finite and non-negative"));
         }
         let sum = kd + ks;
         // No tolerance needed: two f32 values rounded from complementary reals (0.7 and
@@ -196,15 +192,9 @@ mod tests {
                 };
                 let wi = s.wi.as_dvec3().normalize();
                 let lobe = 0.7 / TAU * wi.dot(r).max(0.0).powf(n);
-                let (pdf, f) = (
-                    0.2 * wi.z / PI + (n + 1.0) * lobe,
-                    0.2 / PI + (n + 2.0) * lobe,
-                );
+                let (pdf, f) = (0.2 * wi.z / PI + (n + 1.0) * lobe, 0.2 / PI + (n + 2.0) * lobe);
                 let (got_pdf, got_f) = (s.pdf as f64, s.f.x as f64);
-                assert!(
-                    (got_pdf - pdf).abs() <= 1e-3 * pdf,
-                    "θ={deg}: {got_pdf} vs {pdf}"
-                );
+                assert!((got_pdf - pdf).abs() <= 1e-3 * pdf, "θ={deg}: {got_pdf} vs {pdf}");
                 assert!((got_f - f).abs() <= 1e-3 * f, "θ={deg}: {got_f} vs {f}");
             }
         }

@@ -2,7 +2,9 @@
 //! (independent sampler, σ measured from the samples).
 use crate::tracer::RenderOptions;
 use crate::tracer::effects::{Effects, KernelBits};
-use crate::tracer::integrator::tests::{assert_within_4_sigma, camera_at, pooled, quad, render, settings};
+use crate::tracer::integrator::tests::{
+    assert_within_4_sigma, camera_at, pooled, quad, render, settings,
+};
 use crate::tracer::integrator::{Estimator, Roulette};
 use crate::tracer::material::{Glass, Material};
 use crate::tracer::scene::{Mesh, Scene};
@@ -48,9 +50,15 @@ fn a_glass_slab_transmits_the_fresnel_slab_transmittance_at_normal_incidence() {
     let r = 0.04f64;
     for thin in [false, true] {
         let scene = slab_scene(Some(clear(thin, Vec3::ZERO)), 0.2);
-        assert!(scene.effects.contains(Effects::GLASS) && !scene.effects.contains(Effects::ABSORPTION));
+        assert!(
+            scene.effects.contains(Effects::GLASS) && !scene.effects.contains(Effects::ABSORPTION)
+        );
         for est in [Estimator::Mis, Estimator::Bsdf, Estimator::Light] {
-            assert_within_4_sigma(&format!("thin {thin} {est:?}"), head_on(&scene, est), (1.0 - r) / (1.0 + r));
+            assert_within_4_sigma(
+                &format!("thin {thin} {est:?}"),
+                head_on(&scene, est),
+                (1.0 - r) / (1.0 + r),
+            );
         }
     }
     // Without glass the wall is opaque white Lambert facing away from the light: black.
@@ -66,10 +74,18 @@ fn a_glass_slab_transmits_the_fresnel_slab_transmittance_at_normal_incidence() {
 fn roulette_does_not_mistake_refraction_for_absorption() {
     let r = 0.04f64;
     let scene = slab_scene(Some(clear(false, Vec3::ZERO)), 0.2);
-    let px = render(&scene, &settings(Estimator::Mis, Roulette::Throughput { min_depth: 1 }, 4, Vec3::ZERO), 4096);
+    let px = render(
+        &scene,
+        &settings(Estimator::Mis, Roulette::Throughput { min_depth: 1 }, 4, Vec3::ZERO),
+        4096,
+    );
     assert_within_4_sigma("slab with early roulette", pooled(&px), (1.0 - r) / (1.0 + r));
-    let (sum, sum_sq): (f64, f64) = px.iter().fold((0.0, 0.0), |(a, b), p| (a + p.sum[0], b + p.sum_sq[0]));
-    assert!((sum_sq - sum).abs() <= 1e-4 * sum, "samples are not all 0 or 1: Σx² {sum_sq} vs Σx {sum}");
+    let (sum, sum_sq): (f64, f64) =
+        px.iter().fold((0.0, 0.0), |(a, b), p| (a + p.sum[0], b + p.sum_sq[0]));
+    assert!(
+        (sum_sq - sum).abs() <= 1e-4 * sum,
+        "samples are not all 0 or 1: Σx² {sum_sq} vs Σx {sum}"
+    );
 }
 
 /// Roulette waits for non-specular bounces: through a grey slab (each refraction transmits
@@ -80,11 +96,23 @@ fn roulette_does_not_mistake_refraction_for_absorption() {
 fn roulette_waits_for_a_non_specular_bounce() {
     let (r, tint) = (0.04f64, 0.5f64);
     let scene = tinted_slab_scene(Some(clear(false, Vec3::ZERO)), 0.2, Vec3::splat(tint as f32));
-    let px = render(&scene, &settings(Estimator::Mis, Roulette::Throughput { min_depth: 1 }, 4, Vec3::ZERO), 4096);
-    assert_within_4_sigma("grey slab with early roulette", pooled(&px), tint * tint * (1.0 - r) / (1.0 + r));
-    let (sum, sum_sq): (f64, f64) = px.iter().fold((0.0, 0.0), |(a, b), p| (a + p.sum[0], b + p.sum_sq[0]));
+    let px = render(
+        &scene,
+        &settings(Estimator::Mis, Roulette::Throughput { min_depth: 1 }, 4, Vec3::ZERO),
+        4096,
+    );
+    assert_within_4_sigma(
+        "grey slab with early roulette",
+        pooled(&px),
+        tint * tint * (1.0 - r) / (1.0 + r),
+    );
+    let (sum, sum_sq): (f64, f64) =
+        px.iter().fold((0.0, 0.0), |(a, b), p| (a + p.sum[0], b + p.sum_sq[0]));
     let through = tint * tint;
-    assert!((sum_sq - through * sum).abs() <= 1e-4 * sum, "samples are not all 0 or {through}: Σx² {sum_sq} vs Σx {sum}");
+    assert!(
+        (sum_sq - through * sum).abs() <= 1e-4 * sum,
+        "samples are not all 0 or {through}: Σx² {sum_sq} vs Σx {sum}"
+    );
 }
 
 #[test]
@@ -144,7 +172,11 @@ fn an_out_of_focus_point_spreads_to_the_thin_lens_circle_of_confusion() {
     assert!((got - expected).abs() < 0.05 * expected, "E[r²] {got} vs {expected}");
     // A pinhole images the source sharply.
     let sharp = point_scene(0.0);
-    assert!(!sharp.effects_for(sharp.camera(None).unwrap(), Vec3::ZERO).contains(Effects::DEPTH_OF_FIELD));
+    assert!(
+        !sharp
+            .effects_for(sharp.camera(None).unwrap(), Vec3::ZERO)
+            .contains(Effects::DEPTH_OF_FIELD)
+    );
     let pinhole = pixel * pixel / 6.0 + 2.0 * image * image / 3.0;
     let got = spot_second_moment(&sharp);
     assert!((got - pinhole).abs() < 0.1 * pinhole, "pinhole E[r²] {got} vs {pinhole}");
@@ -161,11 +193,18 @@ fn mask_scene(alpha: f32, texture_alpha: Option<[f32; 2]>) -> Scene {
     }
     quad(&mut mesh, Vec3::new(0.0, 0.0, -3.0), Vec3::X * 4.0, Vec3::Y * 4.0, 1);
     let mut textures = vec![];
-    let mut mask = Material { alpha, alpha_cutoff: Some(0.5), ..Material::lambert("mask", Vec3::ZERO) };
+    let mut mask =
+        Material { alpha, alpha_cutoff: Some(0.5), ..Material::lambert("mask", Vec3::ZERO) };
     if let Some([a0, a1]) = texture_alpha {
         use crate::tracer::texture::{Texture, Wrap};
         let texels = vec![Vec4::new(1.0, 1.0, 1.0, a0), Vec4::new(1.0, 1.0, 1.0, a1)];
-        textures.push(Texture { width: 2, height: 1, texels, wrap_s: Wrap::ClampToEdge, wrap_t: Wrap::ClampToEdge });
+        textures.push(Texture {
+            width: 2,
+            height: 1,
+            texels,
+            wrap_s: Wrap::ClampToEdge,
+            wrap_t: Wrap::ClampToEdge,
+        });
         mask.base_color_texture = Some(crate::tracer::material::TextureRef::new(0, 0));
     }
     let light = Material { emission: Vec3::ONE, ..Material::lambert("light", Vec3::ZERO) };
@@ -185,7 +224,13 @@ fn alpha_masks_cut_out_geometry_by_factor_and_by_texture() {
     let column = |x: usize| (0..8).map(|y| px[y * 8 + x].mean()[0]).sum::<f64>() / 8.0;
     assert!((column(0) - 1.0).abs() < 1e-6 && column(7) == 0.0, "{} {}", column(0), column(7));
     // The matte kernel (no alpha code) would not see through: gating matters.
-    let matte = crate::tracer::render_tile(&cut, &s, s.full_frame(), 0..4, &RenderOptions { kernel: Some(KernelBits::MATTE), ..RenderOptions::default() });
+    let matte = crate::tracer::render_tile(
+        &cut,
+        &s,
+        s.full_frame(),
+        0..4,
+        &RenderOptions { kernel: Some(KernelBits::MATTE), ..RenderOptions::default() },
+    );
     assert_eq!(pooled(&matte.unwrap().pixels).0, 0.0);
 }
 
@@ -197,9 +242,19 @@ fn a_point_light_lights_a_floor_by_the_inverse_square_law() {
         quad(&mut mesh, Vec3::ZERO, Vec3::X * 10.0, Vec3::NEG_Z * 10.0, 0);
         let cam = camera_at(Vec3::new(0.0, 0.5, 0.0) * h, Vec3::ZERO, 0.01);
         let light = Light::Point { position: Vec3::Y * h, intensity: Vec3::splat(3.0) };
-        let scene = Scene::new(mesh, vec![Material::lambert("floor", Vec3::splat(0.5))], vec![], vec![cam], vec![light]);
+        let scene = Scene::new(
+            mesh,
+            vec![Material::lambert("floor", Vec3::splat(0.5))],
+            vec![],
+            vec![cam],
+            vec![light],
+        );
         assert!(scene.effects.contains(Effects::POINT_LIGHTS));
-        let got = pooled(&render(&scene, &settings(Estimator::Mis, Roulette::default(), 2, Vec3::ZERO), 256));
+        let got = pooled(&render(
+            &scene,
+            &settings(Estimator::Mis, Roulette::default(), 2, Vec3::ZERO),
+            256,
+        ));
         // Radiance = ρ/π · E, E = I/h² (cos ≈ 1 under the light).
         let expected = 0.5 / std::f64::consts::PI * 3.0 / (h * h) as f64;
         assert!((got.0 - expected).abs() < 1e-3 * expected, "h {h}: {got:?} vs {expected}");

@@ -1,8 +1,8 @@
 //! Analytic checks of every estimator. Tolerances are 4σ of the estimate, with σ measured from
 //! the samples themselves (independent sampler, so the samples are i.i.d. and σ²/n is the
 //! variance of the mean).
-use crate::tracer::RenderOptions;
 use super::*;
+use crate::tracer::RenderOptions;
 use crate::tracer::camera::Camera;
 use crate::tracer::film::{PixelSums, Tile};
 use crate::tracer::material::Material;
@@ -35,11 +35,21 @@ pub(crate) fn camera_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
     let f = (target - eye).normalize();
     let up = if f.cross(Vec3::Y).length() < 1e-6 { Vec3::Z } else { Vec3::Y };
     let right = f.cross(up).normalize();
-    let to_world = Mat4::from_cols(right.extend(0.0), right.cross(f).extend(0.0), (-f).extend(0.0), eye.extend(1.0));
+    let to_world = Mat4::from_cols(
+        right.extend(0.0),
+        right.cross(f).extend(0.0),
+        (-f).extend(0.0),
+        eye.extend(1.0),
+    );
     Camera::pinhole("test", to_world, yfov)
 }
 
-pub(crate) fn settings(estimator: Estimator, roulette: Roulette, size: u32, background: Vec3) -> RenderSettings {
+pub(crate) fn settings(
+    estimator: Estimator,
+    roulette: Roulette,
+    size: u32,
+    background: Vec3,
+) -> RenderSettings {
     RenderSettings {
         width: size,
         height: size,
@@ -52,7 +62,11 @@ pub(crate) fn settings(estimator: Estimator, roulette: Roulette, size: u32, back
 }
 
 /// [`settings`] with the light chosen by `light_sampler`.
-fn settings_choosing(light_sampler: LightSampler, estimator: Estimator, size: u32) -> RenderSettings {
+fn settings_choosing(
+    light_sampler: LightSampler,
+    estimator: Estimator,
+    size: u32,
+) -> RenderSettings {
     let mut s = settings(estimator, Roulette::default(), size, Vec3::ZERO);
     s.path.light_sampler = light_sampler;
     s
@@ -65,7 +79,10 @@ pub(crate) fn render(scene: &Scene, s: &RenderSettings, spp: u32) -> Vec<PixelSu
 pub(crate) fn assert_within_4_sigma(what: &str, got: (f64, f64), expected: f64) {
     let (mean, sigma) = got;
     assert!(sigma > 0.0 || mean == expected, "{what}: no variance measured");
-    assert!((mean - expected).abs() <= 4.0 * sigma + 1e-6 * expected, "{what}: {mean} vs {expected} (σ {sigma})");
+    assert!(
+        (mean - expected).abs() <= 4.0 * sigma + 1e-6 * expected,
+        "{what}: {mean} vs {expected} (σ {sigma})"
+    );
 }
 
 /// A closed cube of side 2 with inward faces, Lambert albedo `rho`, emitting `le` everywhere.
@@ -79,7 +96,13 @@ pub(crate) fn furnace(rho: f32, le: f32) -> Scene {
     }
     let mut m = Material::lambert("wall", Vec3::splat(rho));
     m.emission = Vec3::splat(le);
-    Scene::new(mesh, vec![m], vec![], vec![camera_at(Vec3::new(0.1, 0.2, 0.3), Vec3::new(1.0, 0.5, -2.0), 1.2)], vec![])
+    Scene::new(
+        mesh,
+        vec![m],
+        vec![],
+        vec![camera_at(Vec3::new(0.1, 0.2, 0.3), Vec3::new(1.0, 0.5, -2.0), 1.2)],
+        vec![],
+    )
 }
 
 #[test]
@@ -97,7 +120,11 @@ fn white_furnace_every_estimator_with_and_without_roulette() {
     let (rho, le) = (0.6, 0.2);
     let scene = furnace(rho, le);
     let expected = (le / (1.0 - rho)) as f64;
-    let roulettes = [Roulette::Off, Roulette::Throughput { min_depth: 1 }, Roulette::Threshold { threshold: 0.5, p: 0.5 }];
+    let roulettes = [
+        Roulette::Off,
+        Roulette::Throughput { min_depth: 1 },
+        Roulette::Threshold { threshold: 0.5, p: 0.5 },
+    ];
     for est in Estimator::ALL {
         for rr in roulettes {
             let got = pooled(&render(&scene, &settings(est, rr, 8, Vec3::ZERO), 64));
@@ -107,7 +134,11 @@ fn white_furnace_every_estimator_with_and_without_roulette() {
     // Its 12 emitting faces chosen through a light tree (from inside every bounding sphere).
     for est in [Estimator::Light, Estimator::Mis] {
         let s = settings_choosing(LightSampler::Tree, est, 8);
-        assert_within_4_sigma(&format!("{est:?} through the tree"), pooled(&render(&scene, &s, 64)), expected);
+        assert_within_4_sigma(
+            &format!("{est:?} through the tree"),
+            pooled(&render(&scene, &s, 64)),
+            expected,
+        );
     }
 }
 
@@ -116,10 +147,17 @@ fn lambert_plane_under_a_uniform_background_reflects_rho_times_lb() {
     let mut mesh = Mesh::default();
     quad(&mut mesh, Vec3::ZERO, Vec3::X * 1e3, Vec3::NEG_Z * 1e3, 0);
     let rho = 0.7;
-    let scene = Scene::new(mesh, vec![Material::lambert("ground", Vec3::splat(rho))], vec![], vec![camera_at(Vec3::Y, Vec3::ZERO, 0.5)], vec![]);
+    let scene = Scene::new(
+        mesh,
+        vec![Material::lambert("ground", Vec3::splat(rho))],
+        vec![],
+        vec![camera_at(Vec3::Y, Vec3::ZERO, 0.5)],
+        vec![],
+    );
     let lb = 2.0;
     for est in Estimator::ALL {
-        let got = pooled(&render(&scene, &settings(est, Roulette::default(), 8, Vec3::splat(lb)), 64));
+        let got =
+            pooled(&render(&scene, &settings(est, Roulette::default(), 8, Vec3::splat(lb)), 64));
         assert_within_4_sigma(&format!("{est:?}"), got, (rho * lb) as f64);
     }
 }
@@ -149,29 +187,59 @@ fn small_quad_light_irradiance_matches_the_polygon_formula() {
     let x = Vec3::ZERO;
     // A narrow camera between the light and the floor, looking at x.
     let cam = camera_at(Vec3::new(0.0, 0.5, 0.0), x, 1e-3);
-    let scene = Scene::new(mesh, vec![Material::lambert("floor", Vec3::splat(rho)), light], vec![], vec![cam], vec![]);
+    let scene = Scene::new(
+        mesh,
+        vec![Material::lambert("floor", Vec3::splat(rho)), light],
+        vec![],
+        vec![cam],
+        vec![],
+    );
     let poly = [light_c - lu - lv, light_c + lu - lv, light_c + lu + lv, light_c - lu + lv];
-    let expected = rho as f64 / std::f64::consts::PI * polygon_irradiance(x, Vec3::Y, &poly, le as f64);
+    let expected =
+        rho as f64 / std::f64::consts::PI * polygon_irradiance(x, Vec3::Y, &poly, le as f64);
     for est in Estimator::ALL {
         let spp = if est == Estimator::Mis || est == Estimator::Light { 256 } else { 4096 };
         let got = pooled(&render(&scene, &settings(est, Roulette::default(), 4, Vec3::ZERO), spp));
         assert_within_4_sigma(&format!("{est:?}"), got, expected);
     }
-    for (est, sampler) in [Estimator::Light, Estimator::Mis].into_iter().flat_map(|e| [(e, LightSampler::Power), (e, LightSampler::Tree)]) {
+    for (est, sampler) in [Estimator::Light, Estimator::Mis]
+        .into_iter()
+        .flat_map(|e| [(e, LightSampler::Power), (e, LightSampler::Tree)])
+    {
         let s = settings_choosing(sampler, est, 4);
-        assert_within_4_sigma(&format!("{est:?} {sampler:?}"), pooled(&render(&scene, &s, 256)), expected);
+        assert_within_4_sigma(
+            &format!("{est:?} {sampler:?}"),
+            pooled(&render(&scene, &s, 256)),
+            expected,
+        );
     }
     let with = |sampler| render(&scene, &settings_choosing(sampler, Estimator::Light, 4), 16);
-    assert_ne!(with(LightSampler::Power), with(LightSampler::Tree), "the job's light sampler reaches the light samples");
+    assert_ne!(
+        with(LightSampler::Power),
+        with(LightSampler::Tree),
+        "the job's light sampler reaches the light samples"
+    );
 }
 
 #[test]
 fn a_unit_is_bit_identical_across_thread_counts_and_repeats() {
     let scene = furnace(0.6, 0.2);
-    let s = RenderSettings { sampler: SamplerKind::Sobol, ..settings(Estimator::Mis, Roulette::default(), 16, Vec3::ZERO) };
+    let s = RenderSettings {
+        sampler: SamplerKind::Sobol,
+        ..settings(Estimator::Mis, Roulette::default(), 16, Vec3::ZERO)
+    };
     let run = |threads| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| render_tile(&scene, &s, Tile { x0: 3, y0: 2, w: 9, h: 7 }, 5..21, &RenderOptions::default()).unwrap())
+        pool.install(|| {
+            render_tile(
+                &scene,
+                &s,
+                Tile { x0: 3, y0: 2, w: 9, h: 7 },
+                5..21,
+                &RenderOptions::default(),
+            )
+            .unwrap()
+        })
     };
     let one = run(1);
     assert_eq!(one, run(2));
@@ -187,13 +255,26 @@ fn merged_sample_ranges_equal_one_range_whatever_the_tile_split() {
         let mut frame = vec![PixelSums::default(); 36];
         for (x0, w) in columns.into_iter().filter(|c| c.1 > 0) {
             for range in [0..64, 64..128] {
-                render_tile(&scene, &s, Tile { x0, y0: 0, w, h: 6 }, range, &RenderOptions::default()).unwrap().add_into_frame(&mut frame, 6);
+                render_tile(
+                    &scene,
+                    &s,
+                    Tile { x0, y0: 0, w, h: 6 },
+                    range,
+                    &RenderOptions::default(),
+                )
+                .unwrap()
+                .add_into_frame(&mut frame, 6);
             }
         }
         for (a, b) in whole.pixels.iter().zip(&frame) {
             assert_eq!(a.count, b.count);
             for c in 0..3 {
-                assert!((a.sum[c] - b.sum[c]).abs() <= 1e-12 * a.sum[c].abs(), "{} vs {}", a.sum[c], b.sum[c]);
+                assert!(
+                    (a.sum[c] - b.sum[c]).abs() <= 1e-12 * a.sum[c].abs(),
+                    "{} vs {}",
+                    a.sum[c],
+                    b.sum[c]
+                );
                 assert!((a.sum_sq[c] - b.sum_sq[c]).abs() <= 1e-12 * a.sum_sq[c].abs());
             }
         }

@@ -26,11 +26,11 @@
 //! the whole image.
 use crate::tracer::accel::triangle_normal;
 use crate::tracer::effects::{AllEffects, EffectSet};
-pub use crate::tracer::texture::EmissiveTexture;
-use crate::tracer::texture::Texture;
 use crate::tracer::ray::ErrPoint;
 use crate::tracer::sampler::ONE_MINUS_EPSILON;
 use crate::tracer::sampling::{Frame, cosine_hemisphere, luminance, uniform_triangle};
+pub use crate::tracer::texture::EmissiveTexture;
+use crate::tracer::texture::Texture;
 use glam::{DVec3, Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -53,10 +53,24 @@ pub enum Light {
         two_sided: bool,
         texture: Option<Box<EmissiveTexture>>,
     },
-    Point { position: Vec3, intensity: Vec3 },
-    Spot { position: Vec3, axis: Vec3, intensity: Vec3, cos_inner: f32, cos_outer: f32 },
-    Directional { dir: Vec3, irradiance: Vec3 },
-    Background { radiance: Vec3 },
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+    },
+    Spot {
+        position: Vec3,
+        axis: Vec3,
+        intensity: Vec3,
+        cos_inner: f32,
+        cos_outer: f32,
+    },
+    Directional {
+        dir: Vec3,
+        irradiance: Vec3,
+    },
+    Background {
+        radiance: Vec3,
+    },
 }
 
 /// Where a light sample lies, for the shadow ray.
@@ -88,8 +102,16 @@ impl Light {
         let d = v.map(|p| p.as_dvec3());
         let area = (0.5 * (d[1] - d[0]).cross(d[2] - d[0]).length()) as f32;
         let plane = (n, n.dot(d[0]));
-        (area > 0.0 && area.is_finite())
-            .then_some(Light::Triangle { tri, v: *v, n: n.as_vec3(), plane, area, radiance, two_sided, texture: None })
+        (area > 0.0 && area.is_finite()).then_some(Light::Triangle {
+            tri,
+            v: *v,
+            n: n.as_vec3(),
+            plane,
+            area,
+            radiance,
+            two_sided,
+            texture: None,
+        })
     }
 
     /// This area light with an emissive texture.
@@ -119,7 +141,13 @@ impl Light {
 
     /// Samples incident light at `p` (shading normal `n`), ignoring visibility and choice
     /// probability; kernels without `E::SURFACES` ignore emissive textures.
-    fn sample<E: EffectSet>(&self, p: Vec3, n: Vec3, u: Vec2, textures: &[Texture]) -> Option<LightSample> {
+    fn sample<E: EffectSet>(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        u: Vec2,
+        textures: &[Texture],
+    ) -> Option<LightSample> {
         match *self {
             Light::Triangle { v, n: ln, plane, area, radiance, two_sided, ref texture, .. } => {
                 let (b1, b2) = uniform_triangle(u);
@@ -151,14 +179,24 @@ impl Light {
                 s.li *= spot_falloff(-s.wi.dot(axis), cos_inner, cos_outer);
                 (s.li.max_element() > 0.0).then_some(s)
             }
-            Light::Directional { dir, irradiance } => {
-                Some(LightSample { li: irradiance, wi: -dir, pdf: 1.0, delta: true, target: Target::Infinite })
-            }
+            Light::Directional { dir, irradiance } => Some(LightSample {
+                li: irradiance,
+                wi: -dir,
+                pdf: 1.0,
+                delta: true,
+                target: Target::Infinite,
+            }),
             Light::Background { radiance } => {
                 let local = cosine_hemisphere(u);
                 let wi = Frame::from_normal(n).to_world(local);
                 let pdf = local.z / PI;
-                (pdf > 0.0).then_some(LightSample { li: radiance, wi, pdf, delta: false, target: Target::Infinite })
+                (pdf > 0.0).then_some(LightSample {
+                    li: radiance,
+                    wi,
+                    pdf,
+                    delta: false,
+                    target: Target::Infinite,
+                })
             }
         }
     }
@@ -216,14 +254,25 @@ impl<'a> LightSet<'a> {
     }
 
     /// The set whose first `tree.len()` lights are chosen through `tree`.
-    pub fn with_tree(scene_lights: &'a [Light], tree: Option<&'a LightTree>, background: Vec3, scene_radius: f32) -> LightSet<'a> {
-        let background = (background.max_element() > 0.0).then_some(Light::Background { radiance: background });
+    pub fn with_tree(
+        scene_lights: &'a [Light],
+        tree: Option<&'a LightTree>,
+        background: Vec3,
+        scene_radius: f32,
+    ) -> LightSet<'a> {
+        let background =
+            (background.max_element() > 0.0).then_some(Light::Background { radiance: background });
         let tree = tree.filter(|t| !t.is_empty());
         let grouped = tree.map_or(0, |t| t.len());
         let powers: Vec<f32> = tree
             .map(|t| t.power().max(0.0))
             .into_iter()
-            .chain(scene_lights[grouped..].iter().chain(background.iter()).map(|l| l.power(scene_radius).max(0.0)))
+            .chain(
+                scene_lights[grouped..]
+                    .iter()
+                    .chain(background.iter())
+                    .map(|l| l.power(scene_radius).max(0.0)),
+            )
             .collect();
         let total: f32 = powers.iter().sum();
         let n = powers.len() as f32;
@@ -258,7 +307,9 @@ impl<'a> LightSet<'a> {
     }
 
     fn light(&self, i: usize) -> &Light {
-        self.scene_lights.get(i).unwrap_or_else(|| self.background.as_ref().expect("index in range"))
+        self.scene_lights
+            .get(i)
+            .unwrap_or_else(|| self.background.as_ref().expect("index in range"))
     }
 
     /// The light of choice entry `e`, which is not the tree's (the inverse of `choice_pmf`'s

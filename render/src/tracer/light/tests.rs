@@ -20,7 +20,8 @@ fn lights_are_chosen_in_proportion_to_power() {
     let set = LightSet::new(&lights, Vec3::ZERO, 10.0);
     assert!((set.pmf[0] - 0.25).abs() < 1e-6 && (set.pmf[1] - 0.75).abs() < 1e-6);
     let picks = (0..1000).filter(|i| {
-        let s = set.sample(Vec3::ZERO, Vec3::Y, Vec2::new((*i as f32 + 0.5) / 1000.0, 0.3)).unwrap();
+        let s =
+            set.sample(Vec3::ZERO, Vec3::Y, Vec2::new((*i as f32 + 0.5) / 1000.0, 0.3)).unwrap();
         s.li.x == 3.0
     });
     assert_eq!(picks.count(), 750);
@@ -86,7 +87,9 @@ fn spot_falloff_is_full_inside_and_zero_outside_the_cone() {
 #[test]
 fn point_light_follows_the_inverse_square_law() {
     let l = Light::Point { position: Vec3::new(0.0, 2.0, 0.0), intensity: Vec3::splat(8.0) };
-    let s = l.sample::<crate::tracer::effects::AllEffects>(Vec3::ZERO, Vec3::Y, Vec2::ZERO, &[]).unwrap();
+    let s = l
+        .sample::<crate::tracer::effects::AllEffects>(Vec3::ZERO, Vec3::Y, Vec2::ZERO, &[])
+        .unwrap();
     assert_eq!(s.li, Vec3::splat(2.0));
     assert!(s.delta);
 }

@@ -26,7 +26,13 @@ fn everything_furnace() -> Scene {
     mesh.material.iter_mut().enumerate().for_each(|(i, m)| *m = (i % 4) as u32);
     let punctual = vec![
         Light::Point { position: Vec3::new(0.2, 0.3, -0.1), intensity: Vec3::ONE },
-        Light::Spot { position: Vec3::ZERO, axis: Vec3::NEG_Y, intensity: Vec3::ONE, cos_inner: 0.9, cos_outer: 0.8 },
+        Light::Spot {
+            position: Vec3::ZERO,
+            axis: Vec3::NEG_Y,
+            intensity: Vec3::ONE,
+            cos_inner: 0.9,
+            cos_outer: 0.8,
+        },
         Light::Directional { dir: Vec3::new(0.3, -1.0, 0.2).normalize(), irradiance: Vec3::ONE },
     ];
     Scene::new(mesh, materials, vec![], base.cameras.clone(), punctual)
@@ -47,14 +53,21 @@ fn boundary_random_numbers_in_every_dimension_give_finite_paths() {
     patterns.extend((0..60).map(|_| (rng.next_u32() as u64) << 32 | rng.next_u32() as u64));
     let mut rejected = 0;
     for est in Estimator::ALL {
-        let integrator = Integrator::new(&scene, Vec3::splat(0.5), PathSettings { estimator: est, ..PathSettings::default() });
+        let integrator = Integrator::new(
+            &scene,
+            Vec3::splat(0.5),
+            PathSettings { estimator: est, ..PathSettings::default() },
+        );
         for &pattern in &patterns {
             for (px, py) in [(0, 0), (7, 7), (3, 5)] {
                 let mut sampler = Sampler::boundary(pattern);
                 let ray = camera.ray(px, py, sampler.get_2d());
                 let s = integrator.li(ray, &mut sampler);
                 assert!(s.max_weight.is_finite(), "{est:?} pattern {pattern:x}: {s:?}");
-                assert!(s.radiance.is_finite() || s.radiance.is_nan(), "{est:?} pattern {pattern:x}: {s:?}");
+                assert!(
+                    s.radiance.is_finite() || s.radiance.is_nan(),
+                    "{est:?} pattern {pattern:x}: {s:?}"
+                );
                 rejected += !s.radiance.is_finite() as u32;
             }
         }
@@ -87,7 +100,10 @@ fn hundred_million_samples_in_a_thousand_batches_keep_the_mean_to_1e_minus9() {
     let mean = total.mean()[0];
     assert!((mean - exact).abs() <= 1e-9 * exact, "f64 sums: {mean} vs {exact}");
     let f32_mean = f32_total as f64 / n;
-    assert!((f32_mean - exact).abs() > 1e-4 * exact, "f32 sums should have drifted: {f32_mean} vs {exact}");
+    assert!(
+        (f32_mean - exact).abs() > 1e-4 * exact,
+        "f32 sums should have drifted: {f32_mean} vs {exact}"
+    );
 }
 
 /// Case 13 (tracer side; the job status and EXR side is the server's `tests_numerics`).
@@ -102,17 +118,31 @@ fn non_finite_samples_are_dropped_counted_and_contained() {
         // A small triangle floating in the middle of the camera's view, facing the camera.
         let eye = Vec3::new(0.1, 0.2, 0.3);
         let ahead = eye + (Vec3::new(1.0, 0.5, -2.0) - eye).normalize() * 0.5;
-        mesh.push_flat([ahead, ahead + Vec3::new(0.0, 0.01, 0.0), ahead + Vec3::new(0.01, 0.0, 0.0)], 1);
+        mesh.push_flat(
+            [ahead, ahead + Vec3::new(0.0, 0.01, 0.0), ahead + Vec3::new(0.01, 0.0, 0.0)],
+            1,
+        );
         let mut bad = base.materials[0].clone();
         bad.emission = Vec3::new(0.1, poison, 0.1);
         bad.double_sided = true;
-        let scene = Scene::new(mesh, vec![base.materials[0].clone(), bad], vec![], base.cameras.clone(), vec![]);
+        let scene = Scene::new(
+            mesh,
+            vec![base.materials[0].clone(), bad],
+            vec![],
+            base.cameras.clone(),
+            vec![],
+        );
         let s = settings(Estimator::Mis, Roulette::default(), 16, Vec3::ZERO);
         let spp = 16;
-        let sums = render_tile(&scene, &s, s.full_frame(), 0..spp, &RenderOptions::default()).unwrap();
+        let sums =
+            render_tile(&scene, &s, s.full_frame(), 0..spp, &RenderOptions::default()).unwrap();
         let counted: u64 = sums.pixels.iter().map(|p| p.count).sum();
         assert!(sums.dropped > 0, "{poison}: the poisoned triangle must be hit");
-        assert!(counted > sums.dropped, "{poison}: most samples survive ({} dropped)", sums.dropped);
+        assert!(
+            counted > sums.dropped,
+            "{poison}: most samples survive ({} dropped)",
+            sums.dropped
+        );
         assert_eq!(counted + sums.dropped, 16 * 16 * spp as u64);
         assert!(sums.pixels.iter().all(|p| p.sum.iter().chain(&p.sum_sq).all(|v| v.is_finite())));
         assert!(sums.max_weight.is_finite());
@@ -129,16 +159,26 @@ fn roulette_on_and_off_agree_at_albedo_095_and_weights_stay_bounded() {
     let scene = furnace(rho, le);
     let run = |rr| {
         let s = settings(Estimator::Mis, rr, 8, Vec3::ZERO);
-        let sums = render_tile(&scene, &s, s.full_frame(), 0..256, &RenderOptions::default()).unwrap();
+        let sums =
+            render_tile(&scene, &s, s.full_frame(), 0..256, &RenderOptions::default()).unwrap();
         (pooled(&sums.pixels), sums.max_weight)
     };
     let (off, w_off) = run(Roulette::Off);
     assert_within_4_sigma("roulette off", off, (le / (1.0 - rho)) as f64);
     assert!(w_off <= 1.0, "without roulette the furnace's weights are ρ^k ≤ 1: {w_off}");
-    for rr in [Roulette::default(), Roulette::Throughput { min_depth: 1 }, Roulette::Threshold { threshold: 0.5, p: 0.5 }] {
+    for rr in [
+        Roulette::default(),
+        Roulette::Throughput { min_depth: 1 },
+        Roulette::Threshold { threshold: 0.5, p: 0.5 },
+    ] {
         let (on, w_on) = run(rr);
         let sigma = off.1.hypot(on.1);
-        assert!((on.0 - off.0).abs() <= 3.0 * sigma, "{rr:?}: {} vs off {} (σ {sigma})", on.0, off.0);
+        assert!(
+            (on.0 - off.0).abs() <= 3.0 * sigma,
+            "{rr:?}: {} vs off {} (σ {sigma})",
+            on.0,
+            off.0
+        );
         assert!(w_on <= 1.0 + 1e-6 && w_on > 0.0, "{rr:?}: largest sample weight {w_on}");
     }
 }
@@ -161,14 +201,21 @@ fn shuffled_batches_merge_to_one_pass_with_disjoint_samples() {
     let mut merged = TileSums::new(s.full_frame());
     let mut batch_sums = Vec::new();
     for &b in &order {
-        let part = render_tile(&scene, &s, s.full_frame(), b * 8..(b + 1) * 8, &RenderOptions::default()).unwrap();
+        let part =
+            render_tile(&scene, &s, s.full_frame(), b * 8..(b + 1) * 8, &RenderOptions::default())
+                .unwrap();
         merged.merge(&part).unwrap();
         batch_sums.push(part.pixels[0].sum);
     }
     for (a, b) in whole.pixels.iter().zip(&merged.pixels) {
         assert_eq!(a.count, b.count);
         for c in 0..3 {
-            assert!((a.sum[c] - b.sum[c]).abs() <= 1e-12 * a.sum[c].abs(), "{} vs {}", a.sum[c], b.sum[c]);
+            assert!(
+                (a.sum[c] - b.sum[c]).abs() <= 1e-12 * a.sum[c].abs(),
+                "{} vs {}",
+                a.sum[c],
+                b.sum[c]
+            );
             assert!((a.sum_sq[c] - b.sum_sq[c]).abs() <= 1e-12 * a.sum_sq[c].abs());
         }
     }

@@ -45,7 +45,13 @@ fn scene(extra: &[[Vec3; 3]]) -> Scene {
     let mut light = Material::lambert("light", Vec3::ZERO);
     light.emission = Vec3::splat(5.0);
     let camera = camera_at(Vec3::new(0.0, 2.0, 0.5), Vec3::ZERO, 1.0);
-    Scene::new(mesh, vec![Material::lambert("floor", Vec3::splat(0.8)), light], vec![], vec![camera], vec![])
+    Scene::new(
+        mesh,
+        vec![Material::lambert("floor", Vec3::splat(0.8)), light],
+        vec![],
+        vec![camera],
+        vec![],
+    )
 }
 
 #[test]
@@ -57,11 +63,23 @@ fn degenerate_triangles_are_neither_lights_nor_hit() {
         assert!(Light::triangle(i as u32, t, Vec3::ONE, true).is_none());
         assert_eq!(s.tri_light[i], NO_LIGHT);
         // Aim at its corners and midpoints, from above and from the side: never this triangle.
-        let targets = [t[0], t[1], t[2], (t[0] + t[1]) * 0.5, (t[1] + t[2]) * 0.5, (t[0] + t[1] + t[2]) / 3.0];
+        let targets = [
+            t[0],
+            t[1],
+            t[2],
+            (t[0] + t[1]) * 0.5,
+            (t[1] + t[2]) * 0.5,
+            (t[0] + t[1] + t[2]) / 3.0,
+        ];
         for target in targets {
-            for from in [Vec3::new(0.01, 3.0, 0.02), Vec3::new(2.0, 0.4, 1.0), Vec3::new(-1.0, -2.0, 0.3)] {
+            for from in
+                [Vec3::new(0.01, 3.0, 0.02), Vec3::new(2.0, 0.4, 1.0), Vec3::new(-1.0, -2.0, 0.3)]
+            {
                 let hit = s.accel.intersect(&Ray::new(from, target - from), f32::INFINITY);
-                assert!(hit.is_none_or(|h| h.prim < 4), "false hit on degenerate triangle {k}: {hit:?}");
+                assert!(
+                    hit.is_none_or(|h| h.prim < 4),
+                    "false hit on degenerate triangle {k}: {hit:?}"
+                );
             }
         }
     }
@@ -75,8 +93,11 @@ fn degenerate_triangles_are_neither_lights_nor_hit() {
 #[test]
 fn degenerate_triangles_leave_the_image_unchanged() {
     let s = settings(Estimator::Mis, Roulette::default(), 16, Vec3::splat(0.1));
-    let clean = render_tile(&scene(&[]), &s, s.full_frame(), 0..32, &RenderOptions::default()).unwrap();
-    let dirty = render_tile(&scene(&degenerates()), &s, s.full_frame(), 0..32, &RenderOptions::default()).unwrap();
+    let clean =
+        render_tile(&scene(&[]), &s, s.full_frame(), 0..32, &RenderOptions::default()).unwrap();
+    let dirty =
+        render_tile(&scene(&degenerates()), &s, s.full_frame(), 0..32, &RenderOptions::default())
+            .unwrap();
     assert_eq!(dirty.dropped, 0);
     assert!(dirty.pixels.iter().all(|p| p.sum.iter().all(|v| v.is_finite())));
     assert!(clean.pixels.iter().any(|p| p.sum[0] > 0.0));

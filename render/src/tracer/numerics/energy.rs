@@ -4,11 +4,11 @@
 //! `pbr::tests::white_dielectric_reflects_exactly_what_it_receives`; the GGX albedo table's
 //! are in `bsdf::ggx_albedo::tests`. This one goes through the whole renderer.
 use crate::tracer::bsdf::{Pbr, Phong};
+use crate::tracer::chi2::{self};
 use crate::tracer::integrator::tests::{camera_at, pooled, quad, render, settings};
 use crate::tracer::integrator::{Estimator, Roulette};
 use crate::tracer::material::{Material, MaterialModel};
 use crate::tracer::scene::{Mesh, Scene};
-use crate::tracer::chi2::{self};
 use glam::Vec3;
 
 fn with_model(model: MaterialModel) -> Material {
@@ -40,11 +40,22 @@ fn white_furnace_never_returns_more_than_it_receives() {
             let (s, c) = deg.to_radians().sin_cos();
             let cam = camera_at(Vec3::new(s, c, 0.0), Vec3::ZERO, 1e-3);
             let scene = Scene::new(mesh.clone(), vec![m.clone()], vec![], vec![cam], vec![]);
-            let (mean, sigma) = pooled(&render(&scene, &settings(Estimator::Mis, Roulette::default(), 4, Vec3::ONE), 2048));
+            let (mean, sigma) = pooled(&render(
+                &scene,
+                &settings(Estimator::Mis, Roulette::default(), 4, Vec3::ONE),
+                2048,
+            ));
             let p = chi2::mean_at_most_p(mean, sigma, 1.0);
-            chi2::assert_p(&format!("{name} furnace at {deg}°"), p, &format!("L = {mean:.5} ± {sigma:.5}"));
+            chi2::assert_p(
+                &format!("{name} furnace at {deg}°"),
+                p,
+                &format!("L = {mean:.5} ± {sigma:.5}"),
+            );
             if name == "lambert" {
-                assert!((mean - 1.0).abs() < 1e-5, "a white Lambert plane reflects exactly 1: {mean}");
+                assert!(
+                    (mean - 1.0).abs() < 1e-5,
+                    "a white Lambert plane reflects exactly 1: {mean}"
+                );
             }
         }
     }

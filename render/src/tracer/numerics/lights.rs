@@ -2,7 +2,9 @@
 //! integrator's internals: `integrator_mis_tests.rs`.)
 use crate::tracer::RenderOptions;
 use crate::tracer::chi2::Rng;
-use crate::tracer::integrator::tests::{camera_at, polygon_irradiance, pooled, quad, render, settings};
+use crate::tracer::integrator::tests::{
+    camera_at, polygon_irradiance, pooled, quad, render, settings,
+};
 use crate::tracer::integrator::{Estimator, Roulette};
 use crate::tracer::light::{Light, LightSet};
 use crate::tracer::material::Material;
@@ -47,7 +49,8 @@ fn speck_of_light_1e4_away_gives_closed_form_irradiance() {
         let n = -p.normalize();
         let c = (v[0] + v[1] + v[2]).as_dvec3() / 3.0;
         let d = p.as_dvec3() - c;
-        let expected = 3.0 * area * d.normalize().y * n.as_dvec3().dot(-d.normalize()) / d.length_squared();
+        let expected =
+            3.0 * area * d.normalize().y * n.as_dvec3().dot(-d.normalize()) / d.length_squared();
         let (got, _) = irradiance(&set, p, n, 1000, &mut rng);
         assert!((got / expected - 1.0).abs() < 5e-3, "at {p}: {got:e} vs {expected:e}");
     }
@@ -58,11 +61,24 @@ fn speck_of_light_1e4_away_gives_closed_form_irradiance() {
     let mut emitter = Material::lambert("speck", Vec3::ZERO);
     emitter.emission = Vec3::splat(3.0);
     let cam = camera_at(Vec3::new(0.0, 1e4 - 1.0, 0.0), Vec3::new(0.0, 1e4, 0.0), 1e-3);
-    let scene = Scene::new(mesh, vec![Material::lambert("ceiling", Vec3::splat(0.8)), emitter], vec![], vec![cam], vec![]);
+    let scene = Scene::new(
+        mesh,
+        vec![Material::lambert("ceiling", Vec3::splat(0.8)), emitter],
+        vec![],
+        vec![cam],
+        vec![],
+    );
     let expected = 0.8 / std::f64::consts::PI * 3.0 * area / 1e8;
     for est in [Estimator::Mis, Estimator::Light] {
         let s = settings(est, Roulette::default(), 2, Vec3::ZERO);
-        let sums = crate::tracer::render::render_tile(&scene, &s, s.full_frame(), 0..64, &RenderOptions::default()).unwrap();
+        let sums = crate::tracer::render::render_tile(
+            &scene,
+            &s,
+            s.full_frame(),
+            0..64,
+            &RenderOptions::default(),
+        )
+        .unwrap();
         assert_eq!(sums.dropped, 0, "{est:?}: non-finite samples");
         let (mean, _) = pooled(&sums.pixels);
         assert!((mean / expected - 1.0).abs() < 5e-3, "{est:?}: {mean:e} vs {expected:e}");
@@ -81,10 +97,21 @@ fn small_light_rarely_hit_renders_within_half_a_percent() {
     let mut light = Material::lambert("light", Vec3::ZERO);
     light.emission = Vec3::splat(le);
     let cam = camera_at(Vec3::new(0.0, 0.5, 0.0), Vec3::ZERO, 1e-3);
-    let scene = Scene::new(mesh, vec![Material::lambert("floor", Vec3::splat(rho)), light], vec![], vec![cam], vec![]);
+    let scene = Scene::new(
+        mesh,
+        vec![Material::lambert("floor", Vec3::splat(rho)), light],
+        vec![],
+        vec![cam],
+        vec![],
+    );
     let poly = [c - lu - lv, c + lu - lv, c + lu + lv, c - lu + lv];
-    let expected = rho as f64 / std::f64::consts::PI * polygon_irradiance(Vec3::ZERO, Vec3::Y, &poly, le as f64);
-    let (mean, sigma) = pooled(&render(&scene, &settings(Estimator::Mis, Roulette::default(), 4, Vec3::ZERO), 4096));
+    let expected = rho as f64 / std::f64::consts::PI
+        * polygon_irradiance(Vec3::ZERO, Vec3::Y, &poly, le as f64);
+    let (mean, sigma) = pooled(&render(
+        &scene,
+        &settings(Estimator::Mis, Roulette::default(), 4, Vec3::ZERO),
+        4096,
+    ));
     assert!(4.0 * sigma < 5e-3 * expected, "too noisy to decide: σ {sigma:e}");
     assert!((mean / expected - 1.0).abs() < 5e-3, "{mean} vs {expected} (σ {sigma:e})");
 }
@@ -112,7 +139,10 @@ fn grazing_receivers_match_polygon_irradiance_and_in_plane_is_exactly_zero() {
         let expected = polygon_irradiance(p, n, &poly, 1.0);
         let (got, sigma) = irradiance(&set, p, n, 400_000, &mut rng);
         assert!(expected > 0.0 && sigma > 0.0);
-        assert!((got - expected).abs() <= 4.0 * sigma, "h={h}: {got:e} vs {expected:e} (σ {sigma:e})");
+        assert!(
+            (got - expected).abs() <= 4.0 * sigma,
+            "h={h}: {got:e} vs {expected:e} (σ {sigma:e})"
+        );
     }
     for p in [Vec3::new(0.7, y, 0.1), Vec3::new(0.500_001, y, -0.3), Vec3::new(3.0, y, 2.0)] {
         for _ in 0..100_000 {
@@ -126,8 +156,13 @@ fn grazing_receivers_match_polygon_irradiance_and_in_plane_is_exactly_zero() {
 #[test]
 fn polygon_formula_is_linear_in_height_near_the_plane() {
     // A sanity check of the reference itself at the heights used above.
-    let poly = [DVec3::new(-0.5, 0.0, -0.5), DVec3::new(0.5, 0.0, -0.5), DVec3::new(0.5, 0.0, 0.5), DVec3::new(-0.5, 0.0, 0.5)]
-        .map(|d| d.as_vec3());
+    let poly = [
+        DVec3::new(-0.5, 0.0, -0.5),
+        DVec3::new(0.5, 0.0, -0.5),
+        DVec3::new(0.5, 0.0, 0.5),
+        DVec3::new(-0.5, 0.0, 0.5),
+    ]
+    .map(|d| d.as_vec3());
     let e = |h: f32| polygon_irradiance(Vec3::new(0.7, h, 0.0), Vec3::NEG_X, &poly, 1.0);
     let (a, b) = (e(1e-4), e(1e-5));
     assert!((a / b / 10.0 - 1.0).abs() < 1e-3, "{a:e} {b:e}");

@@ -42,15 +42,22 @@ fn spawned_and_shadow_rays_never_rehit_their_triangle_from_1e_minus8_to_1e8() {
         for _ in 0..1000 {
             let w = unit_vector(&mut rng);
             let spawned = p.spawn(n, w);
-            assert!(accel.intersect(&spawned, f32::INFINITY).is_none(), "{tri:?}: ray from {p:?} along {w} re-hit");
+            assert!(
+                accel.intersect(&spawned, f32::INFINITY).is_none(),
+                "{tri:?}: ray from {p:?} along {w} re-hit"
+            );
             // A shadow ray to a point clearly on w's side (well above the plane's rounding).
             let to = p.p + w * size * log_uniform(&mut rng, -1.0, 2.0);
-            let height = n.as_dvec3().dot(to.as_dvec3() - p.p.as_dvec3()) * (w.dot(n).signum() as f64);
+            let height =
+                n.as_dvec3().dot(to.as_dvec3() - p.p.as_dvec3()) * (w.dot(n).signum() as f64);
             if height <= 1e-3 * size as f64 {
                 continue;
             }
             let shadow = p.spawn_to(n, &ErrPoint::exact(to), Vec3::ZERO);
-            assert!(!accel.occluded(&shadow, 1.0 - SHADOW_EPSILON), "{tri:?}: shadow ray from {p:?} to {to} re-hit");
+            assert!(
+                !accel.occluded(&shadow, 1.0 - SHADOW_EPSILON),
+                "{tri:?}: shadow ray from {p:?} to {to} re-hit"
+            );
             rays += 1;
         }
     }
@@ -80,12 +87,21 @@ fn tiny_gaps_block_shadow_rays_and_keep_nearest_hits_in_both_trees() {
             w.z = w.z.abs().max(0.2);
             let w = w.normalize();
             let hit = accel.intersect(&p.spawn(Vec3::Z, w), f32::INFINITY);
-            let hit = hit.unwrap_or_else(|| panic!("{kind:?}: ray from {p:?} along {w} missed the occluder"));
+            let hit = hit.unwrap_or_else(|| {
+                panic!("{kind:?}: ray from {p:?} along {w} missed the occluder")
+            });
             assert!(hit.prim >= 2, "{kind:?}: nearest hit is the receiver itself ({hit:?})");
             let expected = (gap - p.p.z) / w.z;
-            assert!((hit.t - expected).abs() <= 1e-3 * expected, "{kind:?}: t {} vs {expected}", hit.t);
+            assert!(
+                (hit.t - expected).abs() <= 1e-3 * expected,
+                "{kind:?}: t {} vs {expected}",
+                hit.t
+            );
             let light = ErrPoint::exact(p.p + Vec3::new(0.0, 0.0, s));
-            assert!(accel.occluded(&p.spawn_to(Vec3::Z, &light, Vec3::ZERO), 1.0 - SHADOW_EPSILON), "{kind:?}");
+            assert!(
+                accel.occluded(&p.spawn_to(Vec3::Z, &light, Vec3::ZERO), 1.0 - SHADOW_EPSILON),
+                "{kind:?}"
+            );
         }
     }
 }
@@ -130,12 +146,19 @@ fn axis_parallel_rays_match_brute_force_on_thin_far_slivers() {
                         let expected = brute_force(&tris, &ray);
                         let got = accel.intersect(&ray, f32::INFINITY).map(|h| (h.t, h.prim));
                         assert_eq!(got.map(|g| g.1), expected.map(|e| e.1), "{kind:?}: {ray:?}");
-                        assert_eq!(accel.occluded(&ray, f32::INFINITY), expected.is_some(), "{kind:?}: {ray:?}");
+                        assert_eq!(
+                            accel.occluded(&ray, f32::INFINITY),
+                            expected.is_some(),
+                            "{kind:?}: {ray:?}"
+                        );
                         found += expected.is_some() as u32;
                     }
                 }
             }
         }
-        assert!(found > 300, "the rays must hit the slivers often enough to mean something ({found})");
+        assert!(
+            found > 300,
+            "the rays must hit the slivers often enough to mean something ({found})"
+        );
     }
 }

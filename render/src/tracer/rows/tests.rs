@@ -1,14 +1,21 @@
 //! A unit worked through its row queue, by any number of threads, equals `render_tile`'s bits.
-use crate::tracer::RenderOptions;
 use super::*;
 use crate::scene::load_path;
+use crate::tracer::RenderOptions;
 use crate::tracer::render_tile;
 use crate::tracer::sampler::SamplerKind;
 use std::path::Path;
 
 fn cornell() -> (Arc<Scene>, RenderSettings) {
-    let scene = load_path(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box.gltf")).expect("bundled scene");
-    let mut settings = crate::tracer::integrator::tests::settings(crate::tracer::Estimator::Mis, Default::default(), 40, glam::Vec3::ZERO);
+    let scene =
+        load_path(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box.gltf"))
+            .expect("bundled scene");
+    let mut settings = crate::tracer::integrator::tests::settings(
+        crate::tracer::Estimator::Mis,
+        Default::default(),
+        40,
+        glam::Vec3::ZERO,
+    );
     settings.sampler = SamplerKind::Sobol;
     (Arc::new(scene), settings)
 }

@@ -80,12 +80,7 @@ pub struct UnknownSamplerKind(pub String);
 impl fmt::Display for UnknownSamplerKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let names: Vec<_> = SamplerKind::ALL.iter().map(|k| k.name()).collect();
-        write!(
-            f,
-            "unknown sampler `{}` (valid: {})",
-            self.0,
-            names.join(", ")
-        )
+        write!(f, "unknown sampler `{}` (valid: {})", self.0, names.join(", "))
     }
 }
 
@@ -176,7 +171,13 @@ fn sobol_seeds(pixel_hash: u64, dim: u32, want_y: bool) -> [u32; 3] {
 
 impl Sampler<'static> {
     /// A sampler for sample `sample_index` of pixel `(px, py)`, at dimension 0.
-    pub fn start(kind: SamplerKind, seed: u64, px: u32, py: u32, sample_index: u32) -> Sampler<'static> {
+    pub fn start(
+        kind: SamplerKind,
+        seed: u64,
+        px: u32,
+        py: u32,
+        sample_index: u32,
+    ) -> Sampler<'static> {
         Sampler::new(kind, seed, pixel_hash(seed, px, py), sample_index, None)
     }
 }
@@ -188,7 +189,13 @@ impl<'p> Sampler<'p> {
         Sampler::new(pixel.kind, pixel.seed, pixel.pixel_hash, sample_index, Some(pixel))
     }
 
-    fn new(kind: SamplerKind, seed: u64, pixel_hash: u64, sample_index: u32, pixel: Option<&'p PixelSeeds>) -> Sampler<'p> {
+    fn new(
+        kind: SamplerKind,
+        seed: u64,
+        pixel_hash: u64,
+        sample_index: u32,
+        pixel: Option<&'p PixelSeeds>,
+    ) -> Sampler<'p> {
         Sampler {
             kind,
             seed,
@@ -249,14 +256,14 @@ impl<'p> Sampler<'p> {
     pub fn get_2d(&mut self) -> Vec2 {
         let d = self.advance(2);
         #[cfg(test)]
-        if let (Some(x), Some(y)) = (self.boundary_value(d), self.boundary_value(d.wrapping_add(1))) {
+        if let (Some(x), Some(y)) = (self.boundary_value(d), self.boundary_value(d.wrapping_add(1)))
+        {
             return Vec2::new(x, y);
         }
         let (x, y) = match self.kind {
-            SamplerKind::Independent => (
-                self.independent_bits(d),
-                self.independent_bits(d.wrapping_add(1)),
-            ),
+            SamplerKind::Independent => {
+                (self.independent_bits(d), self.independent_bits(d.wrapping_add(1)))
+            }
             SamplerKind::Sobol => self.sobol_bits(d, true),
         };
         Vec2::new(to_unit(x), to_unit(y))

@@ -25,7 +25,10 @@ pub(super) fn sobol_dim1(index: u32) -> u32 {
 /// no reversal of it, which takes one step off the longest chain of a 2D draw.
 pub(super) fn sobol_dim1_of_reversed(r: u32) -> u32 {
     let t = &SOBOL_DIM1_BYTES;
-    t[0][(r & 0xff) as usize] ^ t[1][(r >> 8 & 0xff) as usize] ^ t[2][(r >> 16 & 0xff) as usize] ^ t[3][(r >> 24) as usize]
+    t[0][(r & 0xff) as usize]
+        ^ t[1][(r >> 8 & 0xff) as usize]
+        ^ t[2][(r >> 16 & 0xff) as usize]
+        ^ t[3][(r >> 24) as usize]
 }
 
 /// `SOBOL_DIM1_BYTES[k][b]`: the XOR of the direction vectors selected by byte value `b` in

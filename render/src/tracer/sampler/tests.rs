@@ -2,8 +2,8 @@
 //! every run sees the same numbers; the tolerances are chosen so a correct
 //! implementation passes by a wide margin and a broken one cannot.
 
-use super::*;
 use super::sobol::*;
+use super::*;
 
 const SOBOL: SamplerKind = SamplerKind::Sobol;
 const INDEPENDENT: SamplerKind = SamplerKind::Independent;
@@ -69,10 +69,7 @@ fn chi_square_p(points: impl Iterator<Item = (f32, f32)>) -> f64 {
         n += 1;
     }
     let expected = f64::from(n) / (G * G) as f64;
-    let stat: f64 = counts
-        .iter()
-        .map(|&c| (f64::from(c) - expected).powi(2) / expected)
-        .sum();
+    let stat: f64 = counts.iter().map(|&c| (f64::from(c) - expected).powi(2) / expected).sum();
     let x = stat / 2.0;
     let mut term = (-x).exp();
     let mut sum = term;
@@ -121,12 +118,7 @@ fn values_are_pure_functions_of_their_inputs() {
         let mut copy = ours.clone();
         assert_eq!(copy.get_2d(), ours.get_2d());
         // Each input matters, so the equalities above are not vacuous.
-        for other in [
-            (43, 3, 9, 17),
-            (42, 4, 9, 17),
-            (42, 3, 10, 17),
-            (42, 3, 9, 18),
-        ] {
+        for other in [(43, 3, 9, 17), (42, 4, 9, 17), (42, 3, 10, 17), (42, 3, 9, 18)] {
             let (seed, px, py, i) = other;
             assert_ne!(
                 draw(&mut Sampler::start(kind, seed, px, py, i)),
@@ -164,10 +156,7 @@ fn values_stay_in_unit_interval() {
             for _ in 0..8 {
                 let v = s.get_2d();
                 for c in [s.get_1d(), v.x, v.y] {
-                    assert!(
-                        (0.0..=ONE_MINUS_EPSILON).contains(&c) && c < 1.0,
-                        "{kind}: {c}"
-                    );
+                    assert!((0.0..=ONE_MINUS_EPSILON).contains(&c) && c < 1.0, "{kind}: {c}");
                 }
             }
         }
@@ -184,9 +173,7 @@ fn sobol_dimension_1_matches_published_direction_numbers() {
     assert_eq!(SOBOL_DIM1_DIRECTIONS[16], 0x8000_8000);
     assert_eq!(SOBOL_DIM1_DIRECTIONS[31], 0xffff_ffff);
     // Unscrambled points 0..4 of (dim0, dim1): (0,0) (.5,.5) (.25,.75) (.75,.25).
-    let pts: Vec<_> = (0..4)
-        .map(|i| (sobol_dim0(i) >> 30, sobol_dim1(i) >> 30))
-        .collect();
+    let pts: Vec<_> = (0..4).map(|i| (sobol_dim0(i) >> 30, sobol_dim1(i) >> 30)).collect();
     assert_eq!(pts, [(0, 0), (2, 2), (1, 3), (3, 1)]);
 }
 
@@ -197,10 +184,7 @@ fn sobol_pairs_are_nets_in_every_aligned_block() {
             for block in [0, 3] {
                 let start = block << m;
                 let pts = points_2d(SOBOL, seed, px, skip, start..start + (1 << m));
-                assert!(
-                    is_net(&pts, m),
-                    "seed {seed} px {px} skip {skip} m {m} block {block}"
-                );
+                assert!(is_net(&pts, m), "seed {seed} px {px} skip {skip} m {m} block {block}");
             }
         }
     }
@@ -217,10 +201,7 @@ fn sobol_1d_prefixes_are_stratified() {
                 let mut s = Sampler::start(SOBOL, 5, 11, 13, i);
                 (0..dim).for_each(|_| _ = s.get_1d());
                 let stratum = fixed(s.get_1d()) >> (24 - m);
-                assert!(
-                    !std::mem::replace(&mut seen[stratum as usize], true),
-                    "dim {dim} m {m}"
-                );
+                assert!(!std::mem::replace(&mut seen[stratum as usize], true), "dim {dim} m {m}");
             }
         }
     }
@@ -234,11 +215,7 @@ fn sobol_sequences_differ_and_are_decorrelated() {
         points_2d(SOBOL, 7, 101, 0, 0..64),
         points_2d(SOBOL, 7, 100, 2, 0..64),
     ] {
-        let same = base
-            .iter()
-            .zip(&other)
-            .filter(|(a, b)| a.x == b.x || a.y == b.y)
-            .count();
+        let same = base.iter().zip(&other).filter(|(a, b)| a.x == b.x || a.y == b.y).count();
         assert_eq!(same, 0);
     }
     // For independent uniforms the correlation estimate has standard
@@ -266,9 +243,8 @@ fn sobol_sequences_differ_and_are_decorrelated() {
     }
     // Neighbouring pixels at the same sample index.
     let at = |px, py| Sampler::start(SOBOL, 3, px, py, 5).get_1d();
-    let (left, right): (Vec<_>, Vec<_>) = (0..N)
-        .map(|p| (at(p % 64, p / 64), at(p % 64 + 1, p / 64)))
-        .unzip();
+    let (left, right): (Vec<_>, Vec<_>) =
+        (0..N).map(|p| (at(p % 64, p / 64), at(p % 64 + 1, p / 64))).unzip();
     let r = correlation(&left, &right);
     assert!(r.abs() < tolerance, "neighbour pixels: r = {r}");
 }
@@ -306,10 +282,7 @@ fn sobol_integrates_smooth_functions_far_better_than_independent() {
     let g = |t: f64, c: f64| (-(t - c).powi(2) / (2.0 * s * s)).exp();
     let integral_1d = |c: f64| {
         let n = 100_000;
-        (0..n)
-            .map(|k| g((f64::from(k) + 0.5) / f64::from(n), c))
-            .sum::<f64>()
-            / f64::from(n)
+        (0..n).map(|k| g((f64::from(k) + 0.5) / f64::from(n), c)).sum::<f64>() / f64::from(n)
     };
     let exact = integral_1d(cx) * integral_1d(cy);
     // Independent RMSE is sigma/sqrt(N) ~ 0.22/16. Owen-scrambled nets
@@ -337,10 +310,7 @@ fn sobol_integrates_smooth_functions_far_better_than_independent() {
             "skip {skip}: RMSE sobol {sobol:.3e} independent {independent:.3e} ratio {:.1}",
             independent / sobol
         );
-        assert!(
-            sobol * 4.0 < independent,
-            "sobol {sobol} vs independent {independent}"
-        );
+        assert!(sobol * 4.0 < independent, "sobol {sobol} vs independent {independent}");
     }
 }
 
@@ -348,12 +318,19 @@ fn sobol_integrates_smooth_functions_far_better_than_independent() {
 fn frame_seed_keeps_stills_and_separates_frames() {
     for seed in [0u64, 1, 7, u64::MAX] {
         assert_eq!(frame_seed(seed, 0), seed, "frame 0 is the still's seed");
-        let seeds: std::collections::HashSet<u64> = (0..1000).map(|f| frame_seed(seed, f)).collect();
+        let seeds: std::collections::HashSet<u64> =
+            (0..1000).map(|f| frame_seed(seed, f)).collect();
         assert_eq!(seeds.len(), 1000, "distinct frames get distinct seeds");
     }
     // Neighbouring (seed, frame) pairs do not give related seeds: about half the bits differ.
     let flips = |a: u64, b: u64| (a ^ b).count_ones();
-    let mean = (1..=256u32).map(|f| flips(frame_seed(5, f), frame_seed(5, f + 1)) + flips(frame_seed(5, f), frame_seed(6, f))).sum::<u32>() as f64 / 512.0;
+    let mean = (1..=256u32)
+        .map(|f| {
+            flips(frame_seed(5, f), frame_seed(5, f + 1))
+                + flips(frame_seed(5, f), frame_seed(6, f))
+        })
+        .sum::<u32>() as f64
+        / 512.0;
     // Each flip count is Binomial(64, 1/2): mean 32, sd 4; the mean of 512 has sd 0.18.
     assert!((mean - 32.0).abs() < 1.5, "mean bit flips {mean}");
 }
@@ -377,7 +354,10 @@ fn sobol_dim1_by_bytes_equals_the_generator_matrix_bit_by_bit() {
 fn sobol_bits_as_defined(s: &Sampler<'_>, dim: u32) -> (u32, u32) {
     let h = hash2(s.pixel_hash, SOBOL_SALT ^ u64::from(dim));
     let index = owen_scramble(s.sample_index, h as u32);
-    (owen_scramble(sobol_dim0(index), (h >> 32) as u32), owen_scramble(sobol_dim1(index), mix64(h) as u32))
+    (
+        owen_scramble(sobol_dim0(index), (h >> 32) as u32),
+        owen_scramble(sobol_dim1(index), mix64(h) as u32),
+    )
 }
 
 #[test]
@@ -385,7 +365,11 @@ fn sobol_draws_equal_the_definition_bit_for_bit() {
     for (px, py, index) in [(0, 0, 0), (3, 7, 1), (255, 17, 12_345), (1023, 4095, u32::MAX)] {
         for dim in [0u32, 1, 2, 9, 1000] {
             let s = Sampler::start(SOBOL, 0xabc, px, py, index);
-            assert_eq!(s.sobol_bits(dim, true), sobol_bits_as_defined(&s, dim), "pixel ({px}, {py}) sample {index} dim {dim}");
+            assert_eq!(
+                s.sobol_bits(dim, true),
+                sobol_bits_as_defined(&s, dim),
+                "pixel ({px}, {py}) sample {index} dim {dim}"
+            );
         }
     }
 }
@@ -401,10 +385,20 @@ fn a_pixels_memo_gives_the_same_draws_as_a_fresh_sampler() {
             for (n, index) in [5u32, 0, 5, 1, 1 << 20, 2].into_iter().enumerate() {
                 let layout = layouts[n % layouts.len()];
                 let draws = |s: &mut Sampler<'_>| -> Vec<u32> {
-                    layout.iter().flat_map(|&k| if k == 1 { vec![s.get_1d()] } else { s.get_2d().to_array().to_vec() }).map(f32::to_bits).collect()
+                    layout
+                        .iter()
+                        .flat_map(|&k| {
+                            if k == 1 { vec![s.get_1d()] } else { s.get_2d().to_array().to_vec() }
+                        })
+                        .map(f32::to_bits)
+                        .collect()
                 };
                 let fresh = draws(&mut Sampler::start(kind, 77, px, py, index));
-                assert_eq!(draws(&mut Sampler::for_pixel(&pixel, index)), fresh, "{kind} pixel ({px}, {py}) sample {index}");
+                assert_eq!(
+                    draws(&mut Sampler::for_pixel(&pixel, index)),
+                    fresh,
+                    "{kind} pixel ({px}, {py}) sample {index}"
+                );
             }
             // Sobol used the memo (up to its last dimension: the third layout reaches past it);
             // Independent has no seeds to keep.

@@ -32,7 +32,10 @@ async fn documented_routes(api: &Api) -> Vec<(Method, String)> {
 }
 
 async fn call_json(api: &Api, path: &str) -> serde_json::Value {
-    let req = Request::get(path).header(header::AUTHORIZATION, "Bearer client-secret").body(Body::empty()).unwrap();
+    let req = Request::get(path)
+        .header(header::AUTHORIZATION, "Bearer client-secret")
+        .body(Body::empty())
+        .unwrap();
     let r = api.send(req).await;
     assert_eq!(r.status, StatusCode::OK);
     serde_json::from_slice(&r.body).unwrap()
@@ -57,8 +60,16 @@ async fn every_documented_route_but_healthz_needs_its_token() {
             crate::auth::Role::Worker => ("worker-secret", "client-secret"),
             _ => ("client-secret", "worker-secret"),
         };
-        assert_eq!(call(&api, &method, &path, Some(other)).await, StatusCode::UNAUTHORIZED, "{method} {path}: the other role's token");
-        assert_ne!(call(&api, &method, &path, Some(right)).await, StatusCode::UNAUTHORIZED, "{method} {path} with its token");
+        assert_eq!(
+            call(&api, &method, &path, Some(other)).await,
+            StatusCode::UNAUTHORIZED,
+            "{method} {path}: the other role's token"
+        );
+        assert_ne!(
+            call(&api, &method, &path, Some(right)).await,
+            StatusCode::UNAUTHORIZED,
+            "{method} {path} with its token"
+        );
     }
 }
 
@@ -68,5 +79,12 @@ async fn a_401_is_a_problem_with_a_bearer_challenge() {
     let r = api.get("/v1/jobs").await;
     assert_eq!(r.status, StatusCode::UNAUTHORIZED);
     assert_eq!(r.headers.get(header::WWW_AUTHENTICATE).unwrap(), "Bearer");
-    assert!(r.headers.get(header::CONTENT_TYPE).unwrap().to_str().unwrap().starts_with("application/problem+json"));
+    assert!(
+        r.headers
+            .get(header::CONTENT_TYPE)
+            .unwrap()
+            .to_str()
+            .unwrap()
+            .starts_with("application/problem+json")
+    );
 }

@@ -7,7 +7,9 @@ use tessera_proto::Lease;
 /// replacements in its JSON, `image` is appended to the binary chunk as buffer view 1.
 pub fn scene(corners: [[f32; 3]; 3], edits: &[(&str, &str)], image: Option<&[u8]>) -> Vec<u8> {
     let mut bin: Vec<u8> = corners.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
-    let image_view = image.map_or(String::new(), |png| format!(r#",{{"buffer":0,"byteOffset":36,"byteLength":{}}}"#, png.len()));
+    let image_view = image.map_or(String::new(), |png| {
+        format!(r#",{{"buffer":0,"byteOffset":36,"byteLength":{}}}"#, png.len())
+    });
     bin.extend_from_slice(image.unwrap_or_default());
     let mut json = format!(
         r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0,1]}}],
@@ -45,7 +47,14 @@ pub fn textured(png: &[u8], texture_index: usize) -> Vec<u8> {
 
 /// The triangle's buffer given by URI instead of the binary chunk (a self-contained .gltf).
 pub fn with_buffer_uri(uri: &str) -> Vec<u8> {
-    let bytes = scene(TRIANGLE, &[(r#""buffers":[{"byteLength":36}]"#, &format!(r#""buffers":[{{"byteLength":36,"uri":"{uri}"}}]"#))], None);
+    let bytes = scene(
+        TRIANGLE,
+        &[(
+            r#""buffers":[{"byteLength":36}]"#,
+            &format!(r#""buffers":[{{"byteLength":36,"uri":"{uri}"}}]"#),
+        )],
+        None,
+    );
     let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
     bytes[20..20 + json_len].to_vec()
 }

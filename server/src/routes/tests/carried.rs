@@ -6,7 +6,13 @@ use tessera_proto::Lease;
 use tessera_proto::sums::CONTENT_TYPE;
 
 async fn put_result_next(api: &Api, l: &Lease) -> super::super::tests::Resp {
-    api.request(Method::PUT, &format!("/v1/leases/{}/result?next=true", l.lease_id), Some(CONTENT_TYPE), sums_for(l, 0.5).encode()).await
+    api.request(
+        Method::PUT,
+        &format!("/v1/leases/{}/result?next=true", l.lease_id),
+        Some(CONTENT_TYPE),
+        sums_for(l, 0.5).encode(),
+    )
+    .await
 }
 
 /// One lease request, then every result's answer carries the next unit until none is left
@@ -25,7 +31,10 @@ async fn each_result_brings_the_next_unit_until_the_job_is_done() {
         }
         r.expect(StatusCode::OK);
         held = serde_json::from_slice(&r.body).expect("the next lease");
-        assert!(units.insert((held.tile.x0, held.tile.y0, held.samples[0])), "unit {held:?} leased twice");
+        assert!(
+            units.insert((held.tile.x0, held.tile.y0, held.samples[0])),
+            "unit {held:?} leased twice"
+        );
     }
     assert_eq!(units.len(), 12, "6 tiles × 2 batches");
     assert_eq!(api.job(job["id"].as_str().unwrap()).await["state"], "done");
@@ -41,7 +50,14 @@ async fn only_a_merged_result_that_asks_takes_a_lease() {
     let w = register(&api).await;
     api.submit(&tiled_job()).await;
     let first = lease(&api, &w).await;
-    let plain = api.request(Method::PUT, &format!("/v1/leases/{}/result", first.lease_id), Some(CONTENT_TYPE), sums_for(&first, 0.5).encode()).await;
+    let plain = api
+        .request(
+            Method::PUT,
+            &format!("/v1/leases/{}/result", first.lease_id),
+            Some(CONTENT_TYPE),
+            sums_for(&first, 0.5).encode(),
+        )
+        .await;
     plain.expect(StatusCode::NO_CONTENT);
     put_result_next(&api, &first).await.problem(StatusCode::CONFLICT);
     let second = lease(&api, &w).await;
@@ -50,7 +66,18 @@ async fn only_a_merged_result_that_asks_takes_a_lease() {
     for p in &mut wrong.pixels {
         p.count += 1;
     }
-    let r = api.request(Method::PUT, &format!("/v1/leases/{}/result?next=true", second.lease_id), Some(CONTENT_TYPE), wrong.encode()).await;
+    let r = api
+        .request(
+            Method::PUT,
+            &format!("/v1/leases/{}/result?next=true", second.lease_id),
+            Some(CONTENT_TYPE),
+            wrong.encode(),
+        )
+        .await;
     r.problem(StatusCode::UNPROCESSABLE_ENTITY);
-    assert_eq!(api.metric("tessera_leases_granted_total").await, "2", "the two lease requests only");
+    assert_eq!(
+        api.metric("tessera_leases_granted_total").await,
+        "2",
+        "the two lease requests only"
+    );
 }

@@ -12,7 +12,10 @@ fn with_tokens(name: &str) -> Api {
 }
 
 fn file(name: &str) -> &'static str {
-    dashboard::files().find(|(n, _)| *n == name).unwrap_or_else(|| panic!("no dashboard file {name}")).1
+    dashboard::files()
+        .find(|(n, _)| *n == name)
+        .unwrap_or_else(|| panic!("no dashboard file {name}"))
+        .1
 }
 
 /// Every `"./x.js"` module import and `/ui/…` reference in the dashboard's files.

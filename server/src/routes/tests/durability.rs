@@ -54,11 +54,19 @@ async fn a_restarted_coordinator_resumes_from_its_last_checkpoint() {
     }
     assert_eq!(api.state.checkpoint().unwrap(), 1);
     let checkpointed = samples_done(&api, &id).await;
-    assert_eq!(complete(&api, &first[4]).await, StatusCode::NO_CONTENT, "merged, but lost in the crash");
+    assert_eq!(
+        complete(&api, &first[4]).await,
+        StatusCode::NO_CONTENT,
+        "merged, but lost in the crash"
+    );
     let api = api.crash_and_reopen(|_| {});
     assert_eq!(samples_done(&api, &id).await, checkpointed);
     assert_eq!(api.job(&id).await["state"], "running");
-    assert_eq!(complete(&api, &first[5]).await, StatusCode::CONFLICT, "a lease from before the restart");
+    assert_eq!(
+        complete(&api, &first[5]).await,
+        StatusCode::CONFLICT,
+        "a lease from before the restart"
+    );
     let got = finish(&api, &id).await;
     assert!(pixel_layers(&got) == pixel_layers(&reference), "resumed image differs");
 }
@@ -71,7 +79,11 @@ async fn a_pause_is_durable_at_once_and_the_resumed_job_ends_with_the_same_image
     let w = register(&api).await;
     let first = lease_all(&api, &w, 3).await;
     api.post_json(&format!("/v1/jobs/{id}/pause"), &json!(null)).await.expect(StatusCode::OK);
-    assert_eq!(complete(&api, &first[0]).await, StatusCode::NO_CONTENT, "leased before the pause: merged");
+    assert_eq!(
+        complete(&api, &first[0]).await,
+        StatusCode::NO_CONTENT,
+        "leased before the pause: merged"
+    );
     // No checkpoint call here: the pause itself must have reached the store.
     let api = api.crash_and_reopen(|_| {});
     assert_eq!(api.job(&id).await["state"], "paused");
@@ -98,7 +110,10 @@ async fn a_corrupt_checkpoint_file_is_not_read_back() {
     std::fs::write(&tile_file, bytes).unwrap();
     let api = api.crash_and_reopen(|_| {});
     let done = samples_done(&api, &id).await;
-    assert!((done - 3.0 * (1.0 - 64.0 / 240.0)).abs() < 1e-9, "tile 0 (64 of 240 px) starts over: {done}");
+    assert!(
+        (done - 3.0 * (1.0 - 64.0 / 240.0)).abs() < 1e-9,
+        "tile 0 (64 of 240 px) starts over: {done}"
+    );
     finish(&api, &id).await;
 }
 
@@ -109,7 +124,11 @@ impl TinyDisk {
     fn mount(name: &str) -> Option<TinyDisk> {
         let dir = std::env::temp_dir().join(format!("tessera-tiny-{}-{name}", std::process::id()));
         std::fs::create_dir_all(&dir).ok()?;
-        let ok = std::process::Command::new("mount").args(["-t", "tmpfs", "-o", "size=1m", "tmpfs"]).arg(&dir).status().is_ok_and(|s| s.success());
+        let ok = std::process::Command::new("mount")
+            .args(["-t", "tmpfs", "-o", "size=1m", "tmpfs"])
+            .arg(&dir)
+            .status()
+            .is_ok_and(|s| s.success());
         ok.then_some(TinyDisk(dir))
     }
 
@@ -132,16 +151,23 @@ impl Drop for TinyDisk {
 #[tokio::test]
 async fn a_full_disk_refuses_new_jobs_clearly_and_loses_none() {
     let Some(disk) = TinyDisk::mount("full") else {
-        eprintln!("SKIPPED: mounting a tmpfs needs root (CI runs as root); the full-disk test did not run");
+        eprintln!(
+            "SKIPPED: mounting a tmpfs needs root (CI runs as root); the full-disk test did not run"
+        );
         return;
     };
     let data = disk.0.join("data");
     let api = Api::open(data.clone(), |_| {});
     let kept = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
     let filler = disk.fill();
-    let refused = api.post_json("/v1/jobs", &tiled_job()).await.problem(StatusCode::SERVICE_UNAVAILABLE);
+    let refused =
+        api.post_json("/v1/jobs", &tiled_job()).await.problem(StatusCode::SERVICE_UNAVAILABLE);
     assert!(refused.detail.contains("not accepted"), "{}", refused.detail);
-    assert_eq!(api.get("/v1/jobs").await.json()["jobs"].as_array().unwrap().len(), 1, "the refused job is not listed");
+    assert_eq!(
+        api.get("/v1/jobs").await.json()["jobs"].as_array().unwrap().len(),
+        1,
+        "the refused job is not listed"
+    );
     // Work goes on in memory while checkpoints fail, and says so.
     let w = register(&api).await;
     let l = lease(&api, &w).await;
@@ -152,7 +178,10 @@ async fn a_full_disk_refuses_new_jobs_clearly_and_loses_none() {
     assert_eq!(api.state.checkpoint().unwrap(), 1, "the next checkpoint catches up");
     assert_eq!(api.get("/healthz").await.text(), "ok");
     let mut api = api.crash_and_reopen(|_| {});
-    assert!(samples_done(&api, &kept).await > 0.0, "the merge written after the disk freed up survives");
+    assert!(
+        samples_done(&api, &kept).await > 0.0,
+        "the merge written after the disk freed up survives"
+    );
     api.dir = std::path::PathBuf::new(); // the tmpfs is unmounted instead
     drop(api);
 }

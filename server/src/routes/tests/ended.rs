@@ -1,7 +1,9 @@
 //! Ended jobs (done, canceled, or stopped by their time limit): their images are written once,
 //! their merged sums are dropped, and a restart neither reads the sums back nor changes what the
 //! job reports or serves.
-use super::super::tests::{Api, job_body, lease, next_lease, put_result, register, sums_for, tiled_job};
+use super::super::tests::{
+    Api, job_body, lease, next_lease, put_result, register, sums_for, tiled_job,
+};
 use axum::http::StatusCode;
 use serde_json::{Value, json};
 
@@ -11,7 +13,9 @@ async fn finish(api: &Api, job: &str) {
     let mut n = 0;
     while let Some(l) = next_lease(api, &w).await {
         n += 1;
-        put_result(api, &l.lease_id, sums_for(&l, 0.25 * n as f64).encode()).await.expect(StatusCode::NO_CONTENT);
+        put_result(api, &l.lease_id, sums_for(&l, 0.25 * n as f64).encode())
+            .await
+            .expect(StatusCode::NO_CONTENT);
     }
     assert_eq!(api.job(job).await["state"], "done");
 }
@@ -47,7 +51,10 @@ async fn a_done_job_drops_its_sums_and_serves_the_same_after_a_restart() {
     assert!(api.state.scheduler.lock().unwrap().job(&id).unwrap().sums_released());
 
     api.state.checkpoint().unwrap();
-    assert!(!api.dir().join("jobs").join(&id).exists(), "the record now says the image replaces the tile files");
+    assert!(
+        !api.dir().join("jobs").join(&id).exists(),
+        "the record now says the image replaces the tile files"
+    );
     let api = api.crash_and_reopen(|_| {});
     assert!(api.state.scheduler.lock().unwrap().job(&id).unwrap().sums_released(), "not read back");
     assert_eq!(holds_sums(&api, &id), 0);
@@ -69,8 +76,13 @@ async fn an_ended_jobs_preview_from_its_file_is_the_one_its_sums_gave() {
     let canceled = observed(&api, &id).await;
     assert_eq!(canceled.0["state"], "canceled");
     assert_eq!(canceled.2, running, "the preview decoded from the written EXR");
-    assert_eq!(holds_sums(&api, &id), 0, "a canceled job's image is written too, and its sums dropped");
-    let on_disk = std::fs::read(api.dir().join("jobs").join(format!("{id}.exr"))).expect("the canceled job's EXR");
+    assert_eq!(
+        holds_sums(&api, &id),
+        0,
+        "a canceled job's image is written too, and its sums dropped"
+    );
+    let on_disk = std::fs::read(api.dir().join("jobs").join(format!("{id}.exr")))
+        .expect("the canceled job's EXR");
     assert_eq!(canceled.1, on_disk);
     let (img, _) = crate::output::decode_exr(&on_disk).unwrap();
     assert_eq!(img.rgb[0], [0.7; 3], "the merged unit is in it");
@@ -80,14 +92,20 @@ async fn an_ended_jobs_preview_from_its_file_is_the_one_its_sums_gave() {
 async fn a_job_ended_by_its_time_limit_is_still_done_after_a_restart() {
     let api = Api::new("ended-time-limit");
     let w = register(&api).await;
-    let id = api.submit(&job_body(json!({"spp": null, "time_limit_s": 0.3}))).await["id"].as_str().unwrap().to_string();
+    let id = api.submit(&job_body(json!({"spp": null, "time_limit_s": 0.3}))).await["id"]
+        .as_str()
+        .unwrap()
+        .to_string();
     let l = lease(&api, &w).await; // starts the clock
     put_result(&api, &l.lease_id, sums_for(&l, 0.5).encode()).await.expect(StatusCode::NO_CONTENT);
     tokio::time::sleep(std::time::Duration::from_millis(400)).await;
     // No background ticker runs here: the lease request's own tick ends the job.
     api.post_json("/v1/leases", &json!({"worker_id": w})).await.expect(StatusCode::NO_CONTENT);
     let before = observed(&api, &id).await;
-    assert_eq!((before.0["state"].as_str(), before.0["message"].as_str()), (Some("done"), Some("time limit reached")));
+    assert_eq!(
+        (before.0["state"].as_str(), before.0["message"].as_str()),
+        (Some("done"), Some("time limit reached"))
+    );
     api.state.checkpoint().unwrap();
     let api = api.crash_and_reopen(|_| {});
     let after = observed(&api, &id).await;
@@ -116,12 +134,25 @@ async fn a_deleted_job_is_gone_with_its_files_even_after_a_restart() {
         api.get(&format!("/v1/jobs/{id}/image.exr")).await.problem(StatusCode::NOT_FOUND);
         api.delete(&format!("/v1/jobs/{id}?purge=true")).await.problem(StatusCode::NOT_FOUND);
     }
-    assert!(!jobs.join(format!("{done}.exr")).exists() && !jobs.join(&running).exists(), "images and checkpoints removed");
-    put_result(&api, &held.lease_id, sums_for(&held, 0.5).encode()).await.problem(StatusCode::CONFLICT);
+    assert!(
+        !jobs.join(format!("{done}.exr")).exists() && !jobs.join(&running).exists(),
+        "images and checkpoints removed"
+    );
+    put_result(&api, &held.lease_id, sums_for(&held, 0.5).encode())
+        .await
+        .problem(StatusCode::CONFLICT);
     assert_eq!(api.get("/v1/jobs").await.json()["jobs"].as_array().unwrap().len(), 0);
     let api = api.crash_and_reopen(|_| {});
-    assert_eq!(api.get("/v1/jobs").await.json()["jobs"].as_array().unwrap().len(), 0, "no record left to restore");
-    assert_eq!(std::fs::read_dir(api.dir().join("jobs")).unwrap().count(), 0, "no file left behind");
+    assert_eq!(
+        api.get("/v1/jobs").await.json()["jobs"].as_array().unwrap().len(),
+        0,
+        "no record left to restore"
+    );
+    assert_eq!(
+        std::fs::read_dir(api.dir().join("jobs")).unwrap().count(),
+        0,
+        "no file left behind"
+    );
 }
 
 #[tokio::test]
@@ -135,7 +166,11 @@ async fn ended_jobs_are_deleted_once_older_than_the_retention_even_across_a_rest
     assert_eq!(api.state.delete_expired(now), 0, "ended just now");
     api.state.checkpoint().unwrap();
     let api = api.crash_and_reopen(|c| c.delete_ended_after_ms = Some(HOUR_MS));
-    assert_eq!(api.state.delete_expired(now + HOUR_MS - 60_000), 0, "the end time survived the restart");
+    assert_eq!(
+        api.state.delete_expired(now + HOUR_MS - 60_000),
+        0,
+        "the end time survived the restart"
+    );
     assert_eq!(api.state.delete_expired(now + HOUR_MS + 60_000), 1);
     api.get(&format!("/v1/jobs/{ended}")).await.problem(StatusCode::NOT_FOUND);
     assert!(!api.dir().join("jobs").join(format!("{ended}.exr")).exists());

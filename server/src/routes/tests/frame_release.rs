@@ -8,7 +8,9 @@ use tessera_proto::Lease;
 /// Three frames (4, 6, 8) of 16×8 pixels in two 8×8 tiles, 2 spp in one batch: two units a frame.
 fn three_frames() -> Value {
     let frames = json!({"start": 4, "end": 8, "step": 2, "fps": 2.0});
-    job_body(json!({"scene": "cornell-animated", "width": 16, "height": 8, "spp": 2, "tile_size": 8, "batch_spp": 2, "frames": frames}))
+    job_body(
+        json!({"scene": "cornell-animated", "width": 16, "height": 8, "spp": 2, "tile_size": 8, "batch_spp": 2, "frames": frames}),
+    )
 }
 
 fn frame_released(api: &Api, id: &str, index: usize) -> bool {
@@ -33,7 +35,13 @@ async fn leased_frame(api: &Api, w: &str, frame: u32) -> Lease {
 }
 
 async fn merge(api: &Api, l: &Lease) {
-    put_result(api, &l.lease_id, sums_for(l, f64::from(l.frame) / 8.0 + f64::from(l.tile.x0) / 64.0).encode()).await.expect(StatusCode::NO_CONTENT);
+    put_result(
+        api,
+        &l.lease_id,
+        sums_for(l, f64::from(l.frame) / 8.0 + f64::from(l.tile.x0) / 64.0).encode(),
+    )
+    .await
+    .expect(StatusCode::NO_CONTENT);
 }
 
 fn file(api: &Api, id: &str, n: u32) -> std::path::PathBuf {
@@ -52,20 +60,40 @@ async fn a_complete_frame_is_written_and_dropped_while_the_job_goes_on_and_after
     let id = api.submit(&three_frames()).await["id"].as_str().unwrap().to_string();
     let (a, b) = (leased_frame(&api, &w, 4).await, leased_frame(&api, &w, 4).await);
     merge(&api, &a).await;
-    assert!(!frame_released(&api, &id, 0) && !file(&api, &id, 4).exists(), "half a frame stays in memory");
+    assert!(
+        !frame_released(&api, &id, 0) && !file(&api, &id, 4).exists(),
+        "half a frame stays in memory"
+    );
     merge(&api, &b).await;
     wait_released(&api, &id, 0).await;
     assert_eq!(api.job(&id).await["state"], "running");
-    let held: Vec<usize> = api.state.scheduler.lock().unwrap().job(&id).unwrap().tiles.iter().map(|t| t.merged.len()).collect();
+    let held: Vec<usize> = api
+        .state
+        .scheduler
+        .lock()
+        .unwrap()
+        .job(&id)
+        .unwrap()
+        .tiles
+        .iter()
+        .map(|t| t.merged.len())
+        .collect();
     assert_eq!(held, [0, 0, 0, 0, 0, 0], "frame 4's sums are dropped, the others hold none yet");
     let served = api.get(&format!("/v1/jobs/{id}/frames/4/image.exr")).await;
     served.expect(StatusCode::OK);
-    assert_eq!(served.body.as_ref(), std::fs::read(file(&api, &id, 4)).unwrap().as_slice(), "served from its file");
+    assert_eq!(
+        served.body.as_ref(),
+        std::fs::read(file(&api, &id, 4)).unwrap().as_slice(),
+        "served from its file"
+    );
     let (rgb, samples) = layers(&served.body);
     assert!(rgb[0] == [0.5; 3] && rgb[15] == [0.5 + 0.125; 3] && samples.iter().all(|s| *s == 2.0));
     api.get(&format!("/v1/jobs/{id}/frames/4/preview.png")).await.expect(StatusCode::OK);
     let status = api.job(&id).await;
-    assert_eq!((status["frames"][0]["done"].as_bool(), status["frames"][0]["samples_done"].as_f64()), (Some(true), Some(2.0)));
+    assert_eq!(
+        (status["frames"][0]["done"].as_bool(), status["frames"][0]["samples_done"].as_f64()),
+        (Some(true), Some(2.0))
+    );
 
     let c = leased_frame(&api, &w, 6).await;
     merge(&api, &c).await;
@@ -87,7 +115,10 @@ async fn a_complete_frame_is_written_and_dropped_while_the_job_goes_on_and_after
     for (n, v) in [(4u32, 0.5f32), (6, 0.75), (8, 1.0)] {
         let r = api.get(&format!("/v1/jobs/{id}/frames/{n}/image.exr")).await;
         let (rgb, samples) = layers(&r.body);
-        assert!(rgb[0] == [v; 3] && rgb[15] == [v + 0.125; 3] && samples.iter().all(|s| *s == 2.0), "frame {n}");
+        assert!(
+            rgb[0] == [v; 3] && rgb[15] == [v + 0.125; 3] && samples.iter().all(|s| *s == 2.0),
+            "frame {n}"
+        );
     }
     assert!(api.state.scheduler.lock().unwrap().job(&id).unwrap().sums_released());
 }
@@ -105,13 +136,19 @@ async fn a_frame_written_after_the_last_checkpoint_is_rendered_again_after_a_cra
     let before = std::fs::read(file(&api, &id, 4)).unwrap();
 
     let api = api.crash_and_reopen(|_| {});
-    assert!(!file(&api, &id, 4).exists(), "the file holds a merge the crash lost: removed at start");
+    assert!(
+        !file(&api, &id, 4).exists(),
+        "the file holds a merge the crash lost: removed at start"
+    );
     let w = register(&api).await;
     let again = leased_frame(&api, &w, 4).await;
     assert_eq!(again.tile.x0, b.tile.x0, "the lost unit is issued again");
     merge(&api, &again).await;
     wait_released(&api, &id, 0).await;
-    assert!(layers(&std::fs::read(file(&api, &id, 4)).unwrap()) == layers(&before), "the same pixels");
+    assert!(
+        layers(&std::fs::read(file(&api, &id, 4)).unwrap()) == layers(&before),
+        "the same pixels"
+    );
 }
 
 #[tokio::test]
@@ -125,8 +162,22 @@ async fn only_a_time_limited_animation_is_bounded_by_its_pixels() {
     // 100 frames of 1 Mpx: more than the 2²⁶ pixels a job once held, 25,600 tiles.
     let r = api.post_json("/v1/jobs", &long(json!({"spp": 1}))).await;
     assert_eq!(r.status, StatusCode::ACCEPTED, "{}", String::from_utf8_lossy(&r.body));
-    let p = api.post_json("/v1/jobs", &long(json!({"spp": null, "time_limit_s": 60.0}))).await.problem(StatusCode::BAD_REQUEST);
-    assert!(p.field.as_deref() == Some("frames") && p.detail.contains("time-limited"), "{}", p.detail);
-    let p = api.post_json("/v1/jobs", &long(json!({"spp": 1, "frames": {"start": 0, "end": 599}}))).await.problem(StatusCode::BAD_REQUEST);
-    assert!(p.field.as_deref() == Some("frames") && p.detail.contains("131072 tiles per job"), "{}", p.detail);
+    let p = api
+        .post_json("/v1/jobs", &long(json!({"spp": null, "time_limit_s": 60.0})))
+        .await
+        .problem(StatusCode::BAD_REQUEST);
+    assert!(
+        p.field.as_deref() == Some("frames") && p.detail.contains("time-limited"),
+        "{}",
+        p.detail
+    );
+    let p = api
+        .post_json("/v1/jobs", &long(json!({"spp": 1, "frames": {"start": 0, "end": 599}})))
+        .await
+        .problem(StatusCode::BAD_REQUEST);
+    assert!(
+        p.field.as_deref() == Some("frames") && p.detail.contains("131072 tiles per job"),
+        "{}",
+        p.detail
+    );
 }

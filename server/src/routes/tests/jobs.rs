@@ -1,5 +1,7 @@
 //! `/v1/jobs`: submit (every validation rule), read, list with pagination, cancel, events.
-use super::super::tests::{Api, cornell_bytes, job_body, lease, put_result, register, sha256_hex, sums_for, tiled_job};
+use super::super::tests::{
+    Api, cornell_bytes, job_body, lease, put_result, register, sha256_hex, sums_for, tiled_job,
+};
 use axum::http::{Method, StatusCode, header};
 use serde_json::{Value, json};
 
@@ -23,7 +25,8 @@ async fn a_valid_job_is_accepted_queued_and_readable_at_its_location() {
     assert_eq!(job["progress"]["samples_target"], 4.0);
     assert_eq!(job["workers"], 0);
     assert_eq!(job["noise"], Value::Null);
-    let effects: Vec<&str> = job["effects"].as_array().unwrap().iter().map(|e| e.as_str().unwrap()).collect();
+    let effects: Vec<&str> =
+        job["effects"].as_array().unwrap().iter().map(|e| e.as_str().unwrap()).collect();
     assert!(effects.contains(&"area_lights") && !effects.contains(&"background"), "{effects:?}");
 
     let again = api.job(&id).await;
@@ -37,8 +40,15 @@ async fn a_named_camera_and_every_estimator_and_sampler_are_accepted() {
     let api = Api::new("job-named");
     for estimator in ["naive", "bsdf", "light", "mis"] {
         for sampler in ["sobol", "independent"] {
-            let job = api.submit(&job_body(json!({"camera": "Camera", "estimator": estimator, "sampler": sampler}))).await;
-            assert_eq!((job["request"]["estimator"].as_str(), job["request"]["sampler"].as_str()), (Some(estimator), Some(sampler)));
+            let job = api
+                .submit(&job_body(
+                    json!({"camera": "Camera", "estimator": estimator, "sampler": sampler}),
+                ))
+                .await;
+            assert_eq!(
+                (job["request"]["estimator"].as_str(), job["request"]["sampler"].as_str()),
+                (Some(estimator), Some(sampler))
+            );
         }
     }
     let only_noise = api.submit(&job_body(json!({"spp": null, "noise_target": 0.01}))).await;
@@ -75,7 +85,11 @@ async fn the_light_sampler_decides_whether_the_light_tree_is_listed() {
         let api = Api::new(&format!("job-light-sampler-{case}"));
         let job = api.submit(&job_body(json!({"scene": scene, "light_sampler": sampler}))).await;
         let effects = job["effects"].as_array().unwrap();
-        assert_eq!(effects.contains(&json!("light_tree")), listed, "{scene} {sampler:?}: {effects:?}");
+        assert_eq!(
+            effects.contains(&json!("light_tree")),
+            listed,
+            "{scene} {sampler:?}: {effects:?}"
+        );
         assert!(effects.contains(&json!("area_lights")), "{scene}: {effects:?}");
         let worker = register(&api).await;
         let unit = lease(&api, &worker).await;
@@ -127,21 +141,34 @@ rejects!(missing_required_field_is_refused, {"width": null}, "width", ["missing 
 #[tokio::test]
 async fn a_value_of_the_wrong_type_is_a_400_whose_detail_names_the_field() {
     let api = Api::new("job-wrong-type");
-    let p = api.post_json("/v1/jobs", &job_body(json!({"width": "big"}))).await.problem(StatusCode::BAD_REQUEST);
+    let p = api
+        .post_json("/v1/jobs", &job_body(json!({"width": "big"})))
+        .await
+        .problem(StatusCode::BAD_REQUEST);
     assert!(p.detail.contains("width") && p.detail.contains("invalid type"), "{p:?}");
 }
 
 #[tokio::test]
 async fn a_value_of_the_wrong_type_names_the_field() {
     let api = Api::new("job-wrong-type-field");
-    let p = api.post_json("/v1/jobs", &job_body(json!({"width": "big"}))).await.problem(StatusCode::BAD_REQUEST);
+    let p = api
+        .post_json("/v1/jobs", &job_body(json!({"width": "big"})))
+        .await
+        .problem(StatusCode::BAD_REQUEST);
     assert_eq!(p.field.as_deref(), Some("width"), "{p:?}");
 }
 
 #[tokio::test]
 async fn malformed_json_is_a_400_problem() {
     let api = Api::new("job-malformed");
-    let r = api.request(Method::POST, "/v1/jobs", Some("application/json"), r#"{"scene": "cornell-box", "width": 3"#).await;
+    let r = api
+        .request(
+            Method::POST,
+            "/v1/jobs",
+            Some("application/json"),
+            r#"{"scene": "cornell-box", "width": 3"#,
+        )
+        .await;
     let p = r.problem(StatusCode::BAD_REQUEST);
     assert!(p.detail.contains("JSON") && p.detail.contains("EOF"), "{p:?}");
     assert_eq!(p.field, None);
@@ -151,7 +178,10 @@ async fn malformed_json_is_a_400_problem() {
 async fn a_job_without_a_json_content_type_is_a_415_problem() {
     let api = Api::new("job-no-ct");
     let body = serde_json::to_vec(&job_body(json!({}))).unwrap();
-    let p = api.request(Method::POST, "/v1/jobs", Some("text/plain"), body).await.problem(StatusCode::UNSUPPORTED_MEDIA_TYPE);
+    let p = api
+        .request(Method::POST, "/v1/jobs", Some("text/plain"), body)
+        .await
+        .problem(StatusCode::UNSUPPORTED_MEDIA_TYPE);
     assert!(p.detail.contains("application/json"), "{p:?}");
 }
 
@@ -173,7 +203,12 @@ async fn a_job_body_over_64_kib_is_a_413_problem_and_one_just_under_is_read() {
 #[tokio::test]
 async fn unknown_jobs_are_404_problems_on_every_job_route() {
     let api = Api::new("job-404");
-    for uri in ["/v1/jobs/j-nope", "/v1/jobs/j-nope/image.exr", "/v1/jobs/j-nope/preview.png", "/v1/jobs/j-nope/events"] {
+    for uri in [
+        "/v1/jobs/j-nope",
+        "/v1/jobs/j-nope/image.exr",
+        "/v1/jobs/j-nope/preview.png",
+        "/v1/jobs/j-nope/events",
+    ] {
         let p = api.get(uri).await.problem(StatusCode::NOT_FOUND);
         assert!(p.detail.contains("\"j-nope\""), "{uri}: {p:?}");
     }
@@ -186,9 +221,18 @@ async fn jobs_are_listed_newest_first_with_next_page_links() {
     let api = Api::new("job-list");
     let mut ids = Vec::new();
     for seed in 0..3 {
-        ids.push(api.submit(&job_body(json!({"seed": seed}))).await["id"].as_str().unwrap().to_string());
+        ids.push(
+            api.submit(&job_body(json!({"seed": seed}))).await["id"].as_str().unwrap().to_string(),
+        );
     }
-    let ids_of = |v: &Value| -> Vec<String> { v["jobs"].as_array().unwrap().iter().map(|j| j["id"].as_str().unwrap().to_string()).collect() };
+    let ids_of = |v: &Value| -> Vec<String> {
+        v["jobs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|j| j["id"].as_str().unwrap().to_string())
+            .collect()
+    };
 
     let all = api.get("/v1/jobs").await;
     all.expect(StatusCode::OK);
@@ -234,14 +278,22 @@ async fn the_events_of_an_ended_job_are_one_progress_event_then_end() {
     let api = Api::new("job-events");
     let id = api.submit(&job_body(json!({}))).await["id"].as_str().unwrap().to_string();
     api.delete(&format!("/v1/jobs/{id}")).await.expect(StatusCode::OK);
-    let r = tokio::time::timeout(std::time::Duration::from_secs(5), api.get(&format!("/v1/jobs/{id}/events"))).await.expect("the stream ends");
+    let r = tokio::time::timeout(
+        std::time::Duration::from_secs(5),
+        api.get(&format!("/v1/jobs/{id}/events")),
+    )
+    .await
+    .expect("the stream ends");
     r.expect(StatusCode::OK);
     assert!(r.content_type().starts_with("text/event-stream"), "{}", r.content_type());
     let text = r.text();
     let progress = text.find("event: progress").expect(text);
     let end = text.find("event: end").expect(text);
     assert!(progress < end, "{text}");
-    assert!(text.contains("\"state\":\"canceled\"") && text.contains(&format!("data: {id}")), "{text}");
+    assert!(
+        text.contains("\"state\":\"canceled\"") && text.contains(&format!("data: {id}")),
+        "{text}"
+    );
 }
 
 /// Progress events are coalesced (at most one per `COALESCE`), but a job's end is streamed at
@@ -253,7 +305,8 @@ async fn the_end_of_a_job_is_streamed_without_waiting() {
     let w = register(&api).await;
     let id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
     let mut events = api.stream(&format!("/v1/jobs/{id}/events")).await;
-    let first = String::from_utf8(events.next().await.expect("an event").expect("bytes").to_vec()).unwrap();
+    let first =
+        String::from_utf8(events.next().await.expect("an event").expect("bytes").to_vec()).unwrap();
     assert!(first.contains("event: progress") && first.contains("\"state\":\"queued\""), "{first}");
     let reader = tokio::spawn(async move {
         let mut text = String::new();
@@ -269,8 +322,14 @@ async fn the_end_of_a_job_is_streamed_without_waiting() {
     let mut last_merge = tokio::time::Instant::now();
     for l in &units {
         last_merge = tokio::time::Instant::now();
-        put_result(&api, &l.lease_id, sums_for(l, 0.5).encode()).await.expect(StatusCode::NO_CONTENT);
+        put_result(&api, &l.lease_id, sums_for(l, 0.5).encode())
+            .await
+            .expect(StatusCode::NO_CONTENT);
     }
     let (seen, text) = reader.await.unwrap();
-    assert!(seen - last_merge < crate::routes::events::COALESCE / 10, "the end came {:?} after the last merge: {text}", seen - last_merge);
+    assert!(
+        seen - last_merge < crate::routes::events::COALESCE / 10,
+        "the end came {:?} after the last merge: {text}",
+        seen - last_merge
+    );
 }

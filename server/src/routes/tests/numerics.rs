@@ -12,7 +12,14 @@ use tessera_proto::{JobRequest, JobState};
 async fn a_dropped_sample_is_counted_in_the_status_and_the_exr_and_the_image_stays_finite() {
     let api = Api::new("num-dropped");
     let w = register(&api).await;
-    let job_id = api.submit(&job_body(json!({"width": 8, "height": 8, "spp": 4, "tile_size": 8, "batch_spp": 4}))).await["id"].as_str().unwrap().to_string();
+    let job_id = api
+        .submit(&job_body(
+            json!({"width": 8, "height": 8, "spp": 4, "tile_size": 8, "batch_spp": 4}),
+        ))
+        .await["id"]
+        .as_str()
+        .unwrap()
+        .to_string();
     let l = lease(&api, &w).await;
     let mut sums = sums_for(&l, 0.25);
     let p = &mut sums.pixels[0];
@@ -29,7 +36,10 @@ async fn a_dropped_sample_is_counted_in_the_status_and_the_exr_and_the_image_sta
     let (img, meta) = crate::output::decode_exr(&r.body).expect("a decodable EXR");
     let dropped = meta.iter().find(|(k, _)| k == "tessera.dropped_samples").map(|(_, v)| v.clone());
     assert_eq!(dropped, Some(MetaValue::Text("1".into())));
-    assert!(img.rgb.iter().chain(&img.variance).flatten().all(|v| v.is_finite()), "the image is finite");
+    assert!(
+        img.rgb.iter().chain(&img.variance).flatten().all(|v| v.is_finite()),
+        "the image is finite"
+    );
     // The dropped sample weighs nothing: pixel 0 is the mean of its 3 kept samples.
     assert_eq!((img.rgb[0], img.samples[0], img.samples[1]), ([0.25; 3], 3.0, 4.0));
 }
@@ -43,7 +53,14 @@ async fn every_bundled_scene_renders_with_no_dropped_samples() {
         let mut rows = Vec::new();
         for name in crate::bundled::names() {
             for estimator in ["naive", "bsdf", "light", "mis"] {
-                let req = JobRequest { scene: name.into(), width: 24, height: 16, spp: Some(16), estimator: Some(estimator.into()), ..JobRequest::default() };
+                let req = JobRequest {
+                    scene: name.into(),
+                    width: 24,
+                    height: 16,
+                    spp: Some(16),
+                    estimator: Some(estimator.into()),
+                    ..JobRequest::default()
+                };
                 let job = c.wait(&c.submit(&req).await?.id, |_| {}).await?;
                 rows.push((format!("{name} ({estimator})"), job));
             }
@@ -54,10 +71,17 @@ async fn every_bundled_scene_renders_with_no_dropped_samples() {
     .expect("the farm renders");
     let _ = std::fs::remove_dir_all(&dir);
     for (name, job) in &report {
-        eprintln!("{name}: {:?}, {} dropped, largest sample weight {}", job.state, job.dropped_samples, job.max_sample_weight);
+        eprintln!(
+            "{name}: {:?}, {} dropped, largest sample weight {}",
+            job.state, job.dropped_samples, job.max_sample_weight
+        );
         assert_eq!(job.state, JobState::Done, "{name}: {:?}", job.message);
         assert_eq!(job.dropped_samples, 0, "{name}");
-        assert!(job.max_sample_weight.is_finite() && job.max_sample_weight > 0.0, "{name}: {}", job.max_sample_weight);
+        assert!(
+            job.max_sample_weight.is_finite() && job.max_sample_weight > 0.0,
+            "{name}: {}",
+            job.max_sample_weight
+        );
     }
     assert_eq!(report.len(), crate::bundled::names().len() * 4);
 }

@@ -27,7 +27,10 @@ async fn uploading_the_cornell_box_answers_its_hash_and_description() {
     assert_eq!(r.header(header::LOCATION), format!("/v1/scenes/{id}"));
     assert_eq!(scene["triangles"], 32);
     let effects = scene["effects"].as_array().unwrap();
-    assert!(effects.contains(&json!("area_lights")) && effects.contains(&json!("lambert")), "{effects:?}");
+    assert!(
+        effects.contains(&json!("area_lights")) && effects.contains(&json!("lambert")),
+        "{effects:?}"
+    );
     assert_eq!(scene["cameras"], json!(["Camera"]));
 
     let again = upload(&api, "model/gltf+json", bytes).await;
@@ -54,7 +57,11 @@ async fn a_new_scene_is_stored_by_hash_downloadable_and_usable_by_jobs() {
     data.expect(StatusCode::OK);
     assert_eq!(data.content_type(), "application/octet-stream");
     assert_eq!(data.body.as_ref(), bytes.as_slice(), "the exact bytes back");
-    assert_eq!(std::fs::read(api.dir().join("scenes").join(&id)).unwrap(), bytes, "stored under its hash");
+    assert_eq!(
+        std::fs::read(api.dir().join("scenes").join(&id)).unwrap(),
+        bytes,
+        "stored under its hash"
+    );
 
     let described = api.get(&format!("/v1/scenes/{id}")).await;
     described.expect(StatusCode::OK);
@@ -94,7 +101,9 @@ async fn a_bundled_scene_is_described_by_name() {
 async fn garbage_is_a_422_problem_and_not_stored() {
     let api = Api::new("s-garbage");
     let garbage = b"\x00\x01 certainly not glTF".to_vec();
-    let p = upload(&api, "model/gltf-binary", garbage.clone()).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
+    let p = upload(&api, "model/gltf-binary", garbage.clone())
+        .await
+        .problem(StatusCode::UNPROCESSABLE_ENTITY);
     assert!(p.detail.starts_with("invalid glTF"), "{p:?}");
     api.get(&format!("/v1/scenes/{}", sha256_hex(&garbage))).await.problem(StatusCode::NOT_FOUND);
 }
@@ -102,25 +111,42 @@ async fn garbage_is_a_422_problem_and_not_stored() {
 #[tokio::test]
 async fn a_gltf_with_an_external_file_is_a_422_naming_the_reference() {
     let api = Api::new("s-external");
-    let p = upload(&api, "model/gltf+json", cornell_with_buffer_uri("cornell.bin")).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
-    assert!(p.detail.contains("buffer 0") && p.detail.contains("external file \"cornell.bin\""), "{p:?}");
-    let p = upload(&api, "model/gltf+json", cornell_with_buffer_uri("file:///etc/passwd")).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
+    let p = upload(&api, "model/gltf+json", cornell_with_buffer_uri("cornell.bin"))
+        .await
+        .problem(StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(
+        p.detail.contains("buffer 0") && p.detail.contains("external file \"cornell.bin\""),
+        "{p:?}"
+    );
+    let p = upload(&api, "model/gltf+json", cornell_with_buffer_uri("file:///etc/passwd"))
+        .await
+        .problem(StatusCode::UNPROCESSABLE_ENTITY);
     assert!(p.detail.contains("external reference \"file:///etc/passwd\""), "{p:?}");
-    let p = upload(&api, "model/gltf+json", cornell_with_buffer_uri("../../etc/passwd")).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
+    let p = upload(&api, "model/gltf+json", cornell_with_buffer_uri("../../etc/passwd"))
+        .await
+        .problem(StatusCode::UNPROCESSABLE_ENTITY);
     assert!(p.detail.contains("leaves the scene's directory"), "{p:?}");
 }
 
 #[tokio::test]
 async fn a_scene_without_triangles_is_a_422() {
     let api = Api::new("s-empty");
-    let p = upload(&api, "model/gltf+json", br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[]}]}"#.to_vec()).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
+    let p = upload(
+        &api,
+        "model/gltf+json",
+        br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[]}]}"#.to_vec(),
+    )
+    .await
+    .problem(StatusCode::UNPROCESSABLE_ENTITY);
     assert!(p.detail.contains("no triangles"), "{p:?}");
 }
 
 #[tokio::test]
 async fn a_text_plain_upload_is_a_415_problem() {
     let api = Api::new("s-415");
-    let p = upload(&api, "text/plain", cornell_bytes()).await.problem(StatusCode::UNSUPPORTED_MEDIA_TYPE);
+    let p = upload(&api, "text/plain", cornell_bytes())
+        .await
+        .problem(StatusCode::UNSUPPORTED_MEDIA_TYPE);
     assert!(p.detail.contains("\"text/plain\"") && p.detail.contains("model/gltf-binary"), "{p:?}");
 }
 
@@ -134,7 +160,9 @@ async fn a_scene_over_the_configured_size_is_413() {
 #[tokio::test]
 async fn a_scene_over_the_configured_size_is_a_413_problem() {
     let api = Api::with_config("s-413-problem", |c| c.max_scene_bytes = 1024);
-    let p = upload(&api, "model/gltf+json", cornell_bytes()).await.problem(StatusCode::PAYLOAD_TOO_LARGE);
+    let p = upload(&api, "model/gltf+json", cornell_bytes())
+        .await
+        .problem(StatusCode::PAYLOAD_TOO_LARGE);
     assert!(p.detail.contains("limit"), "{p:?}");
 }
 
@@ -142,7 +170,11 @@ async fn a_scene_over_the_configured_size_is_a_413_problem() {
 async fn unknown_scenes_are_404_problems() {
     let api = Api::new("s-404");
     let unknown = "0".repeat(64);
-    for uri in [format!("/v1/scenes/{unknown}"), format!("/v1/scenes/{unknown}/data"), "/v1/scenes/no-such-scene".to_string()] {
+    for uri in [
+        format!("/v1/scenes/{unknown}"),
+        format!("/v1/scenes/{unknown}/data"),
+        "/v1/scenes/no-such-scene".to_string(),
+    ] {
         let p = api.get(&uri).await.problem(StatusCode::NOT_FOUND);
         assert!(p.detail.starts_with("no scene"), "{uri}: {p:?}");
     }
@@ -153,7 +185,8 @@ async fn path_traversal_ids_never_read_files() {
     let api = Api::new("s-traversal");
     // A real file the traversal could reach: DATA/jobs/secret, i.e. scenes/../jobs/secret.
     std::fs::write(api.dir().join("jobs").join("secret"), b"top secret").unwrap();
-    for id in ["..%2F..%2Fetc%2Fpasswd", "..%2Fjobs%2Fsecret", "%2E%2E%2Fjobs%2Fsecret", "..", "."] {
+    for id in ["..%2F..%2Fetc%2Fpasswd", "..%2Fjobs%2Fsecret", "%2E%2E%2Fjobs%2Fsecret", "..", "."]
+    {
         for uri in [format!("/v1/scenes/{id}/data"), format!("/v1/scenes/{id}")] {
             let r = api.get(&uri).await;
             if r.status == StatusCode::NOT_FOUND && r.body.is_empty() {
@@ -161,7 +194,10 @@ async fn path_traversal_ids_never_read_files() {
             }
             let p = r.problem(StatusCode::NOT_FOUND);
             assert!(p.detail.starts_with("no scene"), "{uri}: {p:?}");
-            assert!(!p.detail.contains("root:") && !p.detail.contains("top secret"), "{uri}: {p:?}");
+            assert!(
+                !p.detail.contains("root:") && !p.detail.contains("top secret"),
+                "{uri}: {p:?}"
+            );
         }
     }
     // The decoded traversal reaches the handler and is refused there.
@@ -182,8 +218,15 @@ async fn the_scene_list_names_the_bundled_scenes_then_uploads() {
     let names: Vec<&str> = list.iter().filter_map(|s| s["name"].as_str()).collect();
     assert_eq!(names, crate::bundled::names(), "every bundled scene, by name, in order");
     let cornell = list.iter().find(|s| s["name"] == "cornell-box").unwrap();
-    assert_eq!((cornell["id"].as_str(), &cornell["triangles"]), (Some(sha256_hex(&cornell_bytes()).as_str()), &json!(32)));
+    assert_eq!(
+        (cornell["id"].as_str(), &cornell["triangles"]),
+        (Some(sha256_hex(&cornell_bytes()).as_str()), &json!(32))
+    );
     let last = list.last().unwrap();
-    assert_eq!((last["id"].as_str(), &last["name"]), (Some(sha256_hex(&extra).as_str()), &json!(null)), "the upload, unnamed, after them");
+    assert_eq!(
+        (last["id"].as_str(), &last["name"]),
+        (Some(sha256_hex(&extra).as_str()), &json!(null)),
+        "the upload, unnamed, after them"
+    );
     assert_eq!(list.len(), names.len() + 1);
 }

@@ -19,7 +19,12 @@ async fn metrics_are_prometheus_text() {
     let r = api.get("/metrics").await;
     r.expect(StatusCode::OK);
     assert!(r.content_type().starts_with("text/plain"), "{}", r.content_type());
-    assert!(r.text().contains("# TYPE tessera_units_merged_total counter\ntessera_units_merged_total 0\n"), "{}", r.text());
+    assert!(
+        r.text()
+            .contains("# TYPE tessera_units_merged_total counter\ntessera_units_merged_total 0\n"),
+        "{}",
+        r.text()
+    );
     assert_eq!(api.metric("tessera_jobs{state=\"queued\"}").await, "1");
     assert_eq!(api.metric("tessera_workers").await, "0");
 }
@@ -28,12 +33,20 @@ async fn metrics_are_prometheus_text() {
 async fn metrics_count_workers_by_renderer_with_the_label_escaped() {
     let api = Api::new("metrics-renderers");
     for renderer in ["tessera 0.1.0 src:a libm:0", "tessera 0.1.0 src:a libm:0", "odd \"one\"\\"] {
-        api.post_json("/v1/workers", &json!({"name": "w", "threads": 1, "renderer": renderer})).await.expect(StatusCode::CREATED);
+        api.post_json("/v1/workers", &json!({"name": "w", "threads": 1, "renderer": renderer}))
+            .await
+            .expect(StatusCode::CREATED);
     }
     let r = api.get("/metrics").await;
     let text = r.text();
-    assert!(text.contains("\ntessera_workers_by_renderer{renderer=\"tessera 0.1.0 src:a libm:0\"} 2\n"), "{text}");
-    assert!(text.contains("\ntessera_workers_by_renderer{renderer=\"odd \\\"one\\\"\\\\\"} 1\n"), "{text}");
+    assert!(
+        text.contains("\ntessera_workers_by_renderer{renderer=\"tessera 0.1.0 src:a libm:0\"} 2\n"),
+        "{text}"
+    );
+    assert!(
+        text.contains("\ntessera_workers_by_renderer{renderer=\"odd \\\"one\\\"\\\\\"} 1\n"),
+        "{text}"
+    );
     assert_eq!(api.metric("tessera_workers").await, "3");
 }
 
@@ -68,12 +81,19 @@ async fn openapi_documents_every_route_the_router_serves() {
         ("/metrics", &["get"]),
     ];
     for (path, methods) in served {
-        let item = paths.get(path).unwrap_or_else(|| panic!("{path} is not documented; documented: {:?}", paths.keys().collect::<Vec<_>>()));
+        let item = paths.get(path).unwrap_or_else(|| {
+            panic!("{path} is not documented; documented: {:?}", paths.keys().collect::<Vec<_>>())
+        });
         for m in methods {
             assert!(item.get(*m).is_some(), "{path} lacks {m}");
         }
     }
-    assert_eq!(paths.len(), served.len(), "documented paths: {:?}", paths.keys().collect::<Vec<_>>());
+    assert_eq!(
+        paths.len(),
+        served.len(),
+        "documented paths: {:?}",
+        paths.keys().collect::<Vec<_>>()
+    );
     // Spot-check that schemas come along.
     assert!(doc["components"]["schemas"]["JobRequest"].is_object());
     assert!(doc["components"]["schemas"]["Problem"].is_object());
@@ -99,5 +119,7 @@ async fn unknown_routes_and_methods_are_problems() {
     let api = Api::new("no-route");
     let p = api.get("/v1/nope").await.problem(StatusCode::NOT_FOUND);
     assert!(p.detail.contains("/v1/nope"), "{p:?}");
-    api.request(Method::PATCH, "/v1/jobs", None, Body::empty()).await.problem(StatusCode::METHOD_NOT_ALLOWED);
+    api.request(Method::PATCH, "/v1/jobs", None, Body::empty())
+        .await
+        .problem(StatusCode::METHOD_NOT_ALLOWED);
 }

@@ -1,5 +1,7 @@
 //! The worker protocol over HTTP: register, lease, heartbeat, result, release.
-use super::super::tests::{Api, lease, next_lease, put_result, register, samples_done, sums_for, tiled_job};
+use super::super::tests::{
+    Api, lease, next_lease, put_result, register, samples_done, sums_for, tiled_job,
+};
 use axum::http::{Method, StatusCode};
 use serde_json::{Value, json};
 
@@ -25,17 +27,24 @@ async fn registering_returns_an_id_and_the_heartbeat_period() {
 #[tokio::test]
 async fn registering_with_zero_threads_is_a_400_naming_threads() {
     let api = Api::new("w-register-0");
-    let p = api.post_json("/v1/workers", &json!({"name": "x", "threads": 0})).await.problem(StatusCode::BAD_REQUEST);
+    let p = api
+        .post_json("/v1/workers", &json!({"name": "x", "threads": 0}))
+        .await
+        .problem(StatusCode::BAD_REQUEST);
     assert_eq!(p.field.as_deref(), Some("threads"));
     assert!(p.detail.contains("threads in 1..=4096"), "{p:?}");
-    let p = api.post_json("/v1/workers", &json!({"name": "x"})).await.problem(StatusCode::BAD_REQUEST);
+    let p =
+        api.post_json("/v1/workers", &json!({"name": "x"})).await.problem(StatusCode::BAD_REQUEST);
     assert_eq!(p.field.as_deref(), Some("threads"), "missing field: {p:?}");
 }
 
 #[tokio::test]
 async fn registering_with_a_too_long_name_is_a_400_naming_name() {
     let api = Api::new("w-register-name");
-    let p = api.post_json("/v1/workers", &json!({"name": "n".repeat(300), "threads": 2})).await.problem(StatusCode::BAD_REQUEST);
+    let p = api
+        .post_json("/v1/workers", &json!({"name": "n".repeat(300), "threads": 2}))
+        .await
+        .problem(StatusCode::BAD_REQUEST);
     assert_eq!(p.field.as_deref(), Some("name"), "{p:?}");
     assert!(!p.detail.contains("threads"), "the threads are fine: {p:?}");
 }
@@ -43,7 +52,10 @@ async fn registering_with_a_too_long_name_is_a_400_naming_name() {
 #[tokio::test]
 async fn leasing_for_an_unknown_worker_is_404() {
     let api = Api::new("w-lease-404");
-    let p = api.post_json("/v1/leases", &json!({"worker_id": "w404"})).await.problem(StatusCode::NOT_FOUND);
+    let p = api
+        .post_json("/v1/leases", &json!({"worker_id": "w404"}))
+        .await
+        .problem(StatusCode::NOT_FOUND);
     assert!(p.detail.contains("unknown worker \"w404\""), "{p:?}");
 }
 
@@ -66,7 +78,11 @@ async fn leases_cover_the_jobs_tiles_and_batches_breadth_first() {
     let first = lease(&api, &w).await;
     assert_eq!(first.job_id, job_id);
     assert_eq!(first.scene_id, job["scene"].as_str().unwrap());
-    assert_eq!((first.tile.x0, first.tile.y0, first.tile.w, first.tile.h), (0, 0, 8, 8), "tile_size 8");
+    assert_eq!(
+        (first.tile.x0, first.tile.y0, first.tile.w, first.tile.h),
+        (0, 0, 8, 8),
+        "tile_size 8"
+    );
     assert_eq!(first.samples, [0, 3], "batch_spp 3");
     assert_eq!(first.deadline_ms, 10_000);
     assert_eq!((first.params.width, first.params.height), (20, 12));
@@ -80,10 +96,18 @@ async fn leases_cover_the_jobs_tiles_and_batches_breadth_first() {
         all.push(l);
     }
     assert_eq!(all.len(), 12, "6 tiles × 2 batches");
-    assert!(all[..6].iter().all(|l| l.samples == [0, 3]) && all[6..].iter().all(|l| l.samples == [3, 5]), "breadth first, last batch clipped to spp");
-    let mut rects: Vec<_> = all[..6].iter().map(|l| (l.tile.x0, l.tile.y0, l.tile.w, l.tile.h)).collect();
+    assert!(
+        all[..6].iter().all(|l| l.samples == [0, 3])
+            && all[6..].iter().all(|l| l.samples == [3, 5]),
+        "breadth first, last batch clipped to spp"
+    );
+    let mut rects: Vec<_> =
+        all[..6].iter().map(|l| (l.tile.x0, l.tile.y0, l.tile.w, l.tile.h)).collect();
     rects.sort();
-    assert_eq!(rects, [(0, 0, 8, 8), (0, 8, 8, 4), (8, 0, 8, 8), (8, 8, 8, 4), (16, 0, 4, 8), (16, 8, 4, 4)]);
+    assert_eq!(
+        rects,
+        [(0, 0, 8, 8), (0, 8, 8, 4), (8, 0, 8, 8), (8, 8, 8, 4), (16, 0, 4, 8), (16, 8, 4, 4)]
+    );
     assert_eq!(api.metric("tessera_leases_granted_total").await, "12");
 }
 
@@ -93,10 +117,14 @@ async fn heartbeats_extend_live_leases_and_answer_409_for_unknown_ones() {
     let w = register(&api).await;
     api.submit(&tiled_job()).await;
     let l = lease(&api, &w).await;
-    let r = api.request(Method::POST, &format!("/v1/leases/{}/heartbeat", l.lease_id), None, "").await;
+    let r =
+        api.request(Method::POST, &format!("/v1/leases/{}/heartbeat", l.lease_id), None, "").await;
     r.expect(StatusCode::OK);
     assert_eq!(r.json(), json!({"deadline_ms": 10_000}));
-    let p = api.request(Method::POST, "/v1/leases/l999-1/heartbeat", None, "").await.problem(StatusCode::CONFLICT);
+    let p = api
+        .request(Method::POST, "/v1/leases/l999-1/heartbeat", None, "")
+        .await
+        .problem(StatusCode::CONFLICT);
     assert!(p.detail.contains("l999-1") && p.detail.contains("no longer active"), "{p:?}");
 }
 
@@ -106,11 +134,18 @@ async fn a_garbage_result_is_422_and_its_unit_is_issued_again() {
     let w = register(&api).await;
     api.submit(&tiled_job()).await;
     let l = lease(&api, &w).await;
-    let p = put_result(&api, &l.lease_id, b"this is not a result".to_vec()).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
-    assert!(p.detail.starts_with("malformed result:") && p.detail.contains("shorter than the 48-byte header"), "{p:?}");
+    let p = put_result(&api, &l.lease_id, b"this is not a result".to_vec())
+        .await
+        .problem(StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(
+        p.detail.starts_with("malformed result:")
+            && p.detail.contains("shorter than the 48-byte header"),
+        "{p:?}"
+    );
     let mut bad_magic = sums_for(&l, 1.0).encode();
     bad_magic[..4].copy_from_slice(b"XSUM");
-    let p = put_result(&api, &l.lease_id, bad_magic).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
+    let p =
+        put_result(&api, &l.lease_id, bad_magic).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
     assert!(p.detail.contains("bad magic"), "{p:?}");
     assert_eq!(api.metric("tessera_results_malformed_total").await, "2");
     // The unit went back to the queue: the next lease is the same tile and samples.
@@ -144,9 +179,17 @@ async fn a_result_is_merged_once_and_a_duplicate_is_409() {
     assert_eq!(job["workers"], 0, "the lease is done");
     assert_eq!(job["history"].as_array().unwrap().len(), 1);
     assert_eq!(job["max_sample_weight"], 0.5);
-    assert_eq!(job["contributions"], json!([{"worker_id": w, "name": "test-host", "samples": 3 * 64}]), "3 spp × 64 pixels, once");
+    assert_eq!(
+        job["contributions"],
+        json!([{"worker_id": w, "name": "test-host", "samples": 3 * 64}]),
+        "3 spp × 64 pixels, once"
+    );
     let worker = &api.get("/v1/workers").await.json()[0];
-    assert_eq!((worker["units_done"].as_u64(), worker["current"].is_null()), (Some(1), true), "{worker}");
+    assert_eq!(
+        (worker["units_done"].as_u64(), worker["current"].is_null()),
+        (Some(1), true),
+        "{worker}"
+    );
 }
 
 #[tokio::test]
@@ -158,14 +201,18 @@ async fn a_result_for_the_wrong_tile_or_samples_is_422_and_not_merged() {
 
     let mut wrong_tile = sums_for(&l, 1.0);
     wrong_tile.tile.x0 += 8;
-    let p = put_result(&api, &l.lease_id, wrong_tile.encode()).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
+    let p = put_result(&api, &l.lease_id, wrong_tile.encode())
+        .await
+        .problem(StatusCode::UNPROCESSABLE_ENTITY);
     assert!(p.detail.contains("result is for tile") && p.detail.contains(&l.lease_id), "{p:?}");
 
     let l2 = lease(&api, &w).await;
     assert_eq!((l2.tile, l2.samples), (l.tile, l.samples), "the refused unit is issued again");
     let mut wrong_samples = sums_for(&l2, 1.0);
     wrong_samples.samples = [1, 4];
-    let p = put_result(&api, &l2.lease_id, wrong_samples.encode()).await.problem(StatusCode::UNPROCESSABLE_ENTITY);
+    let p = put_result(&api, &l2.lease_id, wrong_samples.encode())
+        .await
+        .problem(StatusCode::UNPROCESSABLE_ENTITY);
     assert!(p.detail.contains("result covers samples [1, 4]"), "{p:?}");
 
     assert_eq!(samples_done(&api, &job_id).await, 0.0);
@@ -184,7 +231,9 @@ async fn releasing_a_lease_is_204_once_then_404() {
     r.expect(StatusCode::NO_CONTENT);
     let p = api.delete(&format!("/v1/leases/{}", l.lease_id)).await.problem(StatusCode::NOT_FOUND);
     assert!(p.detail.contains(&l.lease_id), "{p:?}");
-    api.request(Method::POST, &format!("/v1/leases/{}/heartbeat", l.lease_id), None, "").await.problem(StatusCode::CONFLICT);
+    api.request(Method::POST, &format!("/v1/leases/{}/heartbeat", l.lease_id), None, "")
+        .await
+        .problem(StatusCode::CONFLICT);
     let again = lease(&api, &w).await;
     assert_eq!((again.tile, again.samples), (l.tile, l.samples), "a released unit is issued again");
 }
@@ -196,7 +245,9 @@ async fn canceling_a_job_revokes_its_leases() {
     let job_id = api.submit(&tiled_job()).await["id"].as_str().unwrap().to_string();
     let l = lease(&api, &w).await;
     api.delete(&format!("/v1/jobs/{job_id}")).await.expect(StatusCode::OK);
-    api.request(Method::POST, &format!("/v1/leases/{}/heartbeat", l.lease_id), None, "").await.problem(StatusCode::CONFLICT);
+    api.request(Method::POST, &format!("/v1/leases/{}/heartbeat", l.lease_id), None, "")
+        .await
+        .problem(StatusCode::CONFLICT);
     put_result(&api, &l.lease_id, sums_for(&l, 1.0).encode()).await.problem(StatusCode::CONFLICT);
     assert_eq!(samples_done(&api, &job_id).await, 0.0);
     api.post_json("/v1/leases", &json!({"worker_id": w})).await.expect(StatusCode::NO_CONTENT);
@@ -210,7 +261,10 @@ async fn a_paused_job_leases_nothing_until_resumed_and_keeps_what_was_leased() {
     let l = lease(&api, &w).await;
     let r = api.post_json(&format!("/v1/jobs/{job_id}/pause"), &json!(null)).await;
     r.expect(StatusCode::OK);
-    assert_eq!((r.json()["state"].clone(), r.json()["eta_s"].clone()), (json!("paused"), Value::Null));
+    assert_eq!(
+        (r.json()["state"].clone(), r.json()["eta_s"].clone()),
+        (json!("paused"), Value::Null)
+    );
     api.post_json("/v1/leases", &json!({"worker_id": w})).await.expect(StatusCode::NO_CONTENT);
     put_result(&api, &l.lease_id, sums_for(&l, 1.0).encode()).await.expect(StatusCode::NO_CONTENT);
     assert!(samples_done(&api, &job_id).await > 0.0, "the unit leased before the pause is merged");
@@ -221,7 +275,10 @@ async fn a_paused_job_leases_nothing_until_resumed_and_keeps_what_was_leased() {
     lease(&api, &w).await;
     assert_eq!(api.job(&job_id).await["state"], "running");
     api.delete(&format!("/v1/jobs/{job_id}")).await.expect(StatusCode::OK);
-    let p = api.post_json(&format!("/v1/jobs/{job_id}/pause"), &json!(null)).await.problem(StatusCode::CONFLICT);
+    let p = api
+        .post_json(&format!("/v1/jobs/{job_id}/pause"), &json!(null))
+        .await
+        .problem(StatusCode::CONFLICT);
     assert!(p.detail.contains("canceled"), "{p:?}");
     api.post_json("/v1/jobs/nope/resume", &json!(null)).await.problem(StatusCode::NOT_FOUND);
 }
@@ -236,7 +293,9 @@ async fn a_result_over_the_size_limit_is_413() {
 #[tokio::test]
 async fn a_result_over_the_size_limit_is_a_413_problem() {
     let api = Api::new("w-result-413-problem");
-    put_result(&api, "l1-1", vec![0u8; (1024 * 1024 * 64) + 4096 + 1]).await.problem(StatusCode::PAYLOAD_TOO_LARGE);
+    put_result(&api, "l1-1", vec![0u8; (1024 * 1024 * 64) + 4096 + 1])
+        .await
+        .problem(StatusCode::PAYLOAD_TOO_LARGE);
 }
 
 #[tokio::test]
@@ -251,7 +310,11 @@ async fn a_worker_leaving_ends_its_long_poll_and_hands_back_its_units() {
     });
     left.expect(StatusCode::NO_CONTENT);
     poll.problem(StatusCode::NOT_FOUND);
-    assert!(started.elapsed() < std::time::Duration::from_secs(2), "the long poll ended when its worker left: {:?}", started.elapsed());
+    assert!(
+        started.elapsed() < std::time::Duration::from_secs(2),
+        "the long poll ended when its worker left: {:?}",
+        started.elapsed()
+    );
     api.delete(&format!("/v1/workers/{a}")).await.problem(StatusCode::NOT_FOUND);
 
     api.submit(&tiled_job()).await;
@@ -259,19 +322,46 @@ async fn a_worker_leaving_ends_its_long_poll_and_hands_back_its_units() {
     api.delete(&format!("/v1/workers/{b}")).await.expect(StatusCode::NO_CONTENT);
     let c = register(&api).await;
     let again = lease(&api, &c).await;
-    assert_eq!((again.tile, again.samples), (held.tile, held.samples), "b's unit is issued again at once");
-    let ids: Vec<Value> = api.get("/v1/workers").await.json().as_array().unwrap().iter().map(|w| w["id"].clone()).collect();
+    assert_eq!(
+        (again.tile, again.samples),
+        (held.tile, held.samples),
+        "b's unit is issued again at once"
+    );
+    let ids: Vec<Value> = api
+        .get("/v1/workers")
+        .await
+        .json()
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["id"].clone())
+        .collect();
     assert_eq!(ids, [json!(c)], "only c is listed");
 }
 
 #[tokio::test]
 async fn a_job_stays_with_the_renderer_that_started_it_and_its_status_names_it() {
     let api = Api::new("w-renderers");
-    let as_renderer = |name: &str, renderer: &str| json!({"name": name, "threads": 1, "renderer": renderer});
-    let old = api.post_json("/v1/workers", &as_renderer("old", "tessera 0.1.0 src:aaaa libm:0000")).await.json()["worker_id"].as_str().unwrap().to_string();
-    let new = api.post_json("/v1/workers", &as_renderer("new", "tessera 0.1.0 src:bbbb libm:0000")).await.json()["worker_id"].as_str().unwrap().to_string();
+    let as_renderer =
+        |name: &str, renderer: &str| json!({"name": name, "threads": 1, "renderer": renderer});
+    let old = api
+        .post_json("/v1/workers", &as_renderer("old", "tessera 0.1.0 src:aaaa libm:0000"))
+        .await
+        .json()["worker_id"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let new = api
+        .post_json("/v1/workers", &as_renderer("new", "tessera 0.1.0 src:bbbb libm:0000"))
+        .await
+        .json()["worker_id"]
+        .as_str()
+        .unwrap()
+        .to_string();
     let workers = api.get("/v1/workers").await.json();
-    let renderer_of = |id: &str| workers.as_array().unwrap().iter().find(|w| w["id"] == id).unwrap()["renderer"].clone();
+    let renderer_of = |id: &str| {
+        workers.as_array().unwrap().iter().find(|w| w["id"] == id).unwrap()["renderer"].clone()
+    };
     assert_eq!(renderer_of(&old), "tessera 0.1.0 src:aaaa libm:0000");
     assert_eq!(renderer_of(&new), "tessera 0.1.0 src:bbbb libm:0000");
 
@@ -287,12 +377,27 @@ async fn a_job_stays_with_the_renderer_that_started_it_and_its_status_names_it()
     refused.expect(StatusCode::NO_CONTENT);
     assert_eq!(
         refused.header(idle_reason.clone()),
-        format!("jobs {job_id} are kept on renderer tessera 0.1.0 src:aaaa libm:0000 while a worker of it is live"),
+        format!(
+            "jobs {job_id} are kept on renderer tessera 0.1.0 src:aaaa libm:0000 while a worker of it is live"
+        ),
         "the 204 says why this worker idles beside a job with units left"
     );
     let workers = api.get("/v1/workers").await.json();
-    let idle_reason_of = |id: &str| workers.as_array().unwrap().iter().find(|w| w["id"] == id).unwrap().get("idle_reason").cloned();
-    assert_eq!(idle_reason_of(&new), Some(json!(refused.header(idle_reason.clone()))), "the workers list says it too");
+    let idle_reason_of = |id: &str| {
+        workers
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|w| w["id"] == id)
+            .unwrap()
+            .get("idle_reason")
+            .cloned()
+    };
+    assert_eq!(
+        idle_reason_of(&new),
+        Some(json!(refused.header(idle_reason.clone()))),
+        "the workers list says it too"
+    );
     assert_eq!(idle_reason_of(&old), None, "busy");
     put_result(&api, &l.lease_id, sums_for(&l, 1.0).encode()).await.expect(StatusCode::NO_CONTENT);
     assert_eq!(api.job(job_id).await["renderers"], json!(["tessera 0.1.0 src:aaaa libm:0000"]));

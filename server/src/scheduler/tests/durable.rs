@@ -20,15 +20,25 @@ impl Disk {
         let cps = s.checkpoint(now);
         for cp in &cps {
             for t in &cp.tiles {
-                self.tiles.insert((cp.record.cfg.id.clone(), t.tile, t.upto), (t.sums.clone(), t.dropped, t.max_weight));
+                self.tiles.insert(
+                    (cp.record.cfg.id.clone(), t.tile, t.upto),
+                    (t.sums.clone(), t.dropped, t.max_weight),
+                );
             }
             for t in cp.tiles.iter().filter(|t| t.previous_upto > 0) {
                 self.tiles.remove(&(cp.record.cfg.id.clone(), t.tile, t.previous_upto)); // superseded
             }
             self.records.insert(cp.record.cfg.id.clone(), cp.record.clone());
-            s.mark_persisted(cp.record.seq, cp.revision, &cp.tiles.iter().map(|t| (t.tile, t.upto)).collect::<Vec<_>>(), &cp.released_files);
+            s.mark_persisted(
+                cp.record.seq,
+                cp.revision,
+                &cp.tiles.iter().map(|t| (t.tile, t.upto)).collect::<Vec<_>>(),
+                &cp.released_files,
+            );
             for &(tile, upto) in &cp.released_files {
-                self.tiles.remove(&(cp.record.cfg.id.clone(), tile, upto)).expect("a released tile's file was written");
+                self.tiles
+                    .remove(&(cp.record.cfg.id.clone(), tile, upto))
+                    .expect("a released tile's file was written");
             }
         }
         cps.len()
@@ -44,7 +54,8 @@ impl Disk {
                 if Some(tile) == lose_tile {
                     return None;
                 }
-                let (sums, dropped, max_weight) = self.tiles.get(&(id.clone(), tile, mark.upto))?.clone();
+                let (sums, dropped, max_weight) =
+                    self.tiles.get(&(id.clone(), tile, mark.upto))?.clone();
                 Some(RestoredTile { sums, dropped, max_weight })
             });
         }
@@ -53,7 +64,12 @@ impl Disk {
 }
 
 fn frame_bits(s: &Scheduler, id: &str) -> Vec<u64> {
-    s.job(id).unwrap().frame_sums(0).iter().flat_map(|p| p.sum.iter().chain(&p.sum_sq).map(|v| v.to_bits()).chain([p.count])).collect()
+    s.job(id)
+        .unwrap()
+        .frame_sums(0)
+        .iter()
+        .flat_map(|p| p.sum.iter().chain(&p.sum_sq).map(|v| v.to_bits()).chain([p.count]))
+        .collect()
 }
 
 /// Renders a job from start to end on one scheduler, completing units in lease order.
@@ -90,11 +106,19 @@ fn interrupted(lose_tile: Option<u32>) -> Vec<u64> {
     assert_eq!(job.elapsed_ms(0), 600, "render time carries over, downtime does not");
     let lost_px = lose_tile.map_or(0, |t| job.tiles[t as usize].rect.pixel_count()) as f64;
     let expect_done = 4.0 * (1.0 - lost_px / job.pixel_count() as f64);
-    assert!((job.samples_done() - expect_done).abs() < 1e-9, "only the checkpointed batch 0 survives: {}", job.samples_done());
+    assert!(
+        (job.samples_done() - expect_done).abs() < 1e-9,
+        "only the checkpointed batch 0 survives: {}",
+        job.samples_done()
+    );
     let w = b.register_worker("b", 1, 0);
     let again = drain(&mut b, &w, 0);
     let expected = if lose_tile.is_some() { 6 * 3 + 1 } else { 6 * 3 };
-    assert_eq!(again.len(), expected, "batches 1..3 of each tile are issued again (and the lost tile's batch 0)");
+    assert_eq!(
+        again.len(),
+        expected,
+        "batches 1..3 of each tile are issued again (and the lost tile's batch 0)"
+    );
     for g in again.iter().rev() {
         b.complete(&g.lease_id, sums(g, 0.5), 100).unwrap();
     }
@@ -143,7 +167,10 @@ fn ids_from_before_a_restart_are_unknown_after_it() {
     assert_ne!(w, w2);
     assert_ne!(g.lease_id, g2.lease_id, "same unit, same counter, different epoch");
     assert!(b.lease(&w, 0).is_err(), "the old worker id must register again");
-    assert!(matches!(b.complete(&g.lease_id, sums(&g, 1.0), 1), Err(ResultError::Stale(_))), "a pre-restart result is ignored");
+    assert!(
+        matches!(b.complete(&g.lease_id, sums(&g, 1.0), 1), Err(ResultError::Stale(_))),
+        "a pre-restart result is ignored"
+    );
 }
 
 #[test]

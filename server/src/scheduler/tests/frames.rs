@@ -10,7 +10,8 @@ const TILES: usize = 6;
 fn animation(id: &str, frames: &[u32]) -> JobConfig {
     let mut cfg = config(id, 8, 0);
     cfg.frames = frames.to_vec();
-    cfg.request.frames = Some(FrameRange { start: frames[0], end: *frames.last().unwrap(), step: None, fps: None });
+    cfg.request.frames =
+        Some(FrameRange { start: frames[0], end: *frames.last().unwrap(), step: None, fps: None });
     cfg
 }
 
@@ -107,7 +108,15 @@ fn scene_preparation_reports_add_up_per_frame() {
     }
     s.note_prepare("no-such-lease", PrepareKind::Build, 1.0);
     let job = s.job("j").unwrap();
-    assert_eq!(job.prepare[0], FramePrepare { builds: (TILES * 2) as u32, refits: 0, ms: 2.5 * (TILES * 2) as f64, peak_rss_bytes: 0 });
+    assert_eq!(
+        job.prepare[0],
+        FramePrepare {
+            builds: (TILES * 2) as u32,
+            refits: 0,
+            ms: 2.5 * (TILES * 2) as f64,
+            peak_rss_bytes: 0
+        }
+    );
     assert_eq!(job.prepare[1].refits, (TILES * 2) as u32);
 }
 
@@ -143,7 +152,9 @@ fn frames_arrive_in_any_order_with_the_same_bits() {
             s.complete(&g.lease_id, sums(&g, 0.3 + f64::from(g.frame)), 1).unwrap();
         }
         let job = s.job("j").unwrap();
-        (0..2).map(|i| job.frame_sums(i).iter().map(|p| p.sum[0].to_bits()).collect::<Vec<_>>()).collect::<Vec<_>>()
+        (0..2)
+            .map(|i| job.frame_sums(i).iter().map(|p| p.sum[0].to_bits()).collect::<Vec<_>>())
+            .collect::<Vec<_>>()
     };
     assert_eq!(run(false), run(true));
 }

@@ -40,7 +40,11 @@ fn a_jobs_rows_wait_for_the_pixels_the_last_row_recomputed() {
     for (i, g) in first.iter().enumerate() {
         s.complete(&g.lease_id, sums(g, 1.0), i as u64).unwrap();
     }
-    assert_eq!(s.job("j").unwrap().history.rows.len(), 1, "one row at 0 ms, the next not due before 100");
+    assert_eq!(
+        s.job("j").unwrap().history.rows.len(),
+        1,
+        "one row at 0 ms, the next not due before 100"
+    );
     s.complete(&second[0].lease_id, sums(&second[0], 1.0), 150).unwrap();
     let job = s.job("j").unwrap();
     assert_eq!(job.history.rows.len(), 2);
@@ -49,7 +53,11 @@ fn a_jobs_rows_wait_for_the_pixels_the_last_row_recomputed() {
     let job = s.job("j").unwrap();
     assert_eq!(job.history.rows.len(), 2, "not due before 150 + 300 ms");
     let seen = job.history.rows[1][2];
-    assert_eq!((job.reported_noise(), job.reported_frame_noise(0)), (Some(seen), Some(seen)), "status reports the last row's noise");
+    assert_eq!(
+        (job.reported_noise(), job.reported_frame_noise(0)),
+        (Some(seen), Some(seen)),
+        "status reports the last row's noise"
+    );
     assert!(job.noise().unwrap() < seen, "a tile with 8 spp merged since: its noise fell");
     s.complete(&second[2].lease_id, sums(&second[2], 1.0), 450).unwrap();
     let job = s.job("j").unwrap();

@@ -30,7 +30,10 @@ fn a_worker_of_another_renderer_is_told_which_jobs_and_renderer_hold_it_off() {
     assert_eq!(why.pinned, ["j"], "a paused job refuses everyone alike: not this worker's reason");
     assert_eq!(why.renderers.iter().collect::<Vec<_>>(), [OLD]);
     assert!(why.blocklisted.is_empty());
-    assert_eq!(why.to_string(), format!("jobs j are kept on renderer {OLD} while a worker of it is live"));
+    assert_eq!(
+        why.to_string(),
+        format!("jobs j are kept on renderer {OLD} while a worker of it is live")
+    );
     assert_eq!(s.idle_reason(&old, 1), None, "its own renderer's worker is not refused");
 }
 
@@ -56,6 +59,15 @@ fn a_blocklisted_worker_is_told_which_jobs_keep_it_off() {
 
 #[test]
 fn a_long_list_of_jobs_names_the_first_few() {
-    let why = IdleReason { pinned: (1..=8).map(|i| format!("j{i}")).collect(), renderers: [OLD.to_owned()].into(), blocklisted: vec![] };
-    assert_eq!(why.to_string(), format!("jobs j1, j2, j3, j4, j5 and 3 more are kept on renderer {OLD} while a worker of it is live"));
+    let why = IdleReason {
+        pinned: (1..=8).map(|i| format!("j{i}")).collect(),
+        renderers: [OLD.to_owned()].into(),
+        blocklisted: vec![],
+    };
+    assert_eq!(
+        why.to_string(),
+        format!(
+            "jobs j1, j2, j3, j4, j5 and 3 more are kept on renderer {OLD} while a worker of it is live"
+        )
+    );
 }

@@ -11,9 +11,17 @@ fn awkward_sums(g: &Lease) -> PartialSums {
     let n = (g.samples[1] - g.samples[0]) as u64;
     let pixels = (0..g.tile.pixel_count() as u64)
         .map(|i| {
-            let h = (i + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (g.samples[0] as u64 + 7).wrapping_mul(0xD1B5_4A32_D192_ED03) ^ (g.tile.x0 as u64 * 31 + g.tile.y0 as u64);
-            let v = 10f64.powi((h % 13) as i32 - 6) * (1.0 + (h >> 40) as f64 / (1u64 << 24) as f64);
-            WirePixel { sum: [v * n as f64, v, 0.1 * v], sum_sq: [v * v * n as f64; 3], sum_lum_sq: v * v, count: n }
+            let h = (i + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                ^ (g.samples[0] as u64 + 7).wrapping_mul(0xD1B5_4A32_D192_ED03)
+                ^ (g.tile.x0 as u64 * 31 + g.tile.y0 as u64);
+            let v =
+                10f64.powi((h % 13) as i32 - 6) * (1.0 + (h >> 40) as f64 / (1u64 << 24) as f64);
+            WirePixel {
+                sum: [v * n as f64, v, 0.1 * v],
+                sum_sq: [v * v * n as f64; 3],
+                sum_lum_sq: v * v,
+                count: n,
+            }
         })
         .collect();
     PartialSums { tile: g.tile, samples: g.samples, dropped: 0, max_weight: 1.0, pixels }
@@ -30,7 +38,14 @@ fn merged_bits(order: &[usize]) -> (Vec<[u64; 7]>, Vec<Lease>) {
     }
     let job = s.job("j").unwrap();
     assert_eq!(job.state, JobState::Done);
-    let bits = job.frame_sums(0).iter().map(|p| [p.sum[0], p.sum[1], p.sum[2], p.sum_sq[0], p.sum_sq[1], p.sum_sq[2], p.sum_lum_sq].map(f64::to_bits)).collect();
+    let bits = job
+        .frame_sums(0)
+        .iter()
+        .map(|p| {
+            [p.sum[0], p.sum[1], p.sum[2], p.sum_sq[0], p.sum_sq[1], p.sum_sq[2], p.sum_lum_sq]
+                .map(f64::to_bits)
+        })
+        .collect();
     (bits, grants)
 }
 
@@ -67,7 +82,11 @@ fn shuffled_arrival_merges_to_the_same_bits_as_in_order_arrival() {
         acc.into_values().map(f64::to_bits).collect::<Vec<_>>()
     };
     let batch_order: Vec<usize> = (0..48).collect();
-    assert_ne!(naive_sum0(&shuffled(48, 1)), naive_sum0(&batch_order), "the awkward values must be order-sensitive");
+    assert_ne!(
+        naive_sum0(&shuffled(48, 1)),
+        naive_sum0(&batch_order),
+        "the awkward values must be order-sensitive"
+    );
 }
 
 #[test]
@@ -79,7 +98,11 @@ fn batches_cover_disjoint_sample_ranges() {
     let mut seen = std::collections::HashSet::new();
     for g in drain(&mut s, &w, 0) {
         for i in g.samples[0]..g.samples[1] {
-            assert!(seen.insert((g.tile.x0, g.tile.y0, i)), "sample {i} of tile {:?} issued twice", g.tile);
+            assert!(
+                seen.insert((g.tile.x0, g.tile.y0, i)),
+                "sample {i} of tile {:?} issued twice",
+                g.tile
+            );
         }
     }
     assert_eq!(seen.len(), 6 * 30, "every sample index of every tile, once");
@@ -99,7 +122,8 @@ fn a_hundred_million_samples_in_a_thousand_batches_keep_the_mean_to_1e_9() {
     let grants = drain(&mut s, &w, 0);
     assert_eq!(grants.len(), BATCHES as usize);
     // Batch b's samples are (b·7919 + i) mod 1000 + 1, in units of 2⁻¹⁰, for i in 0..1e5.
-    let batch_units = |b: u64| -> u64 { (0..PER_BATCH as u64).map(|i| (b * 7919 + i) % 1000 + 1).sum() };
+    let batch_units =
+        |b: u64| -> u64 { (0..PER_BATCH as u64).map(|i| (b * 7919 + i) % 1000 + 1).sum() };
     let unit = 2f64.powi(-10);
     let (mut exact_units, mut f32_total) = (0u64, 0f32);
     for (b, g) in grants.iter().enumerate() {
@@ -107,8 +131,15 @@ fn a_hundred_million_samples_in_a_thousand_batches_keep_the_mean_to_1e_9() {
         exact_units += units;
         let sum = units as f64 * unit;
         f32_total += sum as f32;
-        let p = WirePixel { sum: [sum; 3], sum_sq: [sum; 3], sum_lum_sq: sum, count: PER_BATCH as u64 };
-        let sums = PartialSums { tile: g.tile, samples: g.samples, dropped: 0, max_weight: 1.0, pixels: vec![p] };
+        let p =
+            WirePixel { sum: [sum; 3], sum_sq: [sum; 3], sum_lum_sq: sum, count: PER_BATCH as u64 };
+        let sums = PartialSums {
+            tile: g.tile,
+            samples: g.samples,
+            dropped: 0,
+            max_weight: 1.0,
+            pixels: vec![p],
+        };
         assert!(s.complete(&g.lease_id, sums, 1).unwrap().merged);
     }
     let merged = s.job("big").unwrap().frame_sums(0)[0];
@@ -119,5 +150,9 @@ fn a_hundred_million_samples_in_a_thousand_batches_keep_the_mean_to_1e_9() {
     // f32 accumulation of the same batch sums fails the bound: the test can tell.
     let f32_mean = f32_total as f64 / 1e8;
     assert!(((f32_mean - exact) / exact).abs() > 1e-9, "f32 mean {f32_mean} vs {exact}");
-    eprintln!("mean {mean:.15} exact {exact:.15} (f64 rel. err {:.1e}, f32 {:.1e})", ((mean - exact) / exact).abs(), ((f32_mean - exact) / exact).abs());
+    eprintln!(
+        "mean {mean:.15} exact {exact:.15} (f64 rel. err {:.1e}, f32 {:.1e})",
+        ((mean - exact) / exact).abs(),
+        ((f32_mean - exact) / exact).abs()
+    );
 }

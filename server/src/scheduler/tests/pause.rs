@@ -12,7 +12,10 @@ fn a_paused_job_is_leased_nothing_while_others_get_the_workers() {
     s.submit(config("other", 4, 0));
     assert_eq!(s.set_paused("held", true, 0), Some(Ok(JobState::Paused)));
     let grants = drain(&mut s, &w, 1);
-    assert!(!grants.is_empty() && grants.iter().all(|g| g.job_id == "other"), "the higher-priority job is paused");
+    assert!(
+        !grants.is_empty() && grants.iter().all(|g| g.job_id == "other"),
+        "the higher-priority job is paused"
+    );
     assert_eq!(s.set_paused("held", false, 2), Some(Ok(JobState::Queued)));
     let g = s.lease(&w, 3).unwrap().expect("a unit of the resumed job");
     assert_eq!(g.job_id, "held");

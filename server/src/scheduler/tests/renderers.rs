@@ -24,14 +24,21 @@ fn a_worker_of_another_renderer_gets_other_jobs_and_never_this_ones_units() {
     assert_eq!(g.job_id, "first");
     let grants = drain(&mut s, &new, 1);
     assert!(!grants.is_empty(), "the second job is open to it");
-    assert!(grants.iter().all(|g| g.job_id == "second"), "the first job has a unit leased to the old renderer");
+    assert!(
+        grants.iter().all(|g| g.job_id == "second"),
+        "the first job has a unit leased to the old renderer"
+    );
     assert!(s.complete(&g.lease_id, sums(&g, 1.0), 2).unwrap().merged);
     for g in &grants {
         s.complete(&g.lease_id, sums(g, 1.0), 3).unwrap();
     }
     assert_eq!(s.job("first").unwrap().renderers, [OLD]);
     assert_eq!(s.job("second").unwrap().renderers, [NEW]);
-    assert_eq!(s.lease(&new, 4).unwrap(), None, "the old worker is live: the first job waits for it");
+    assert_eq!(
+        s.lease(&new, 4).unwrap(),
+        None,
+        "the old worker is live: the first job waits for it"
+    );
     let rest = drain(&mut s, &old, 5);
     assert!(rest.iter().all(|g| g.job_id == "first") && !rest.is_empty());
 }
@@ -52,11 +59,18 @@ fn once_its_renderer_has_no_live_worker_another_goes_on_and_the_job_names_both()
     s.submit(config("j", 8, 0));
     let g = s.lease(&old, 0).unwrap().unwrap();
     s.complete(&g.lease_id, sums(&g, 1.0), 10).unwrap();
-    assert_eq!(s.lease(&new, 10 + LIVE_WITHIN_MS).unwrap(), None, "heard from {LIVE_WITHIN_MS} ms ago: live");
+    assert_eq!(
+        s.lease(&new, 10 + LIVE_WITHIN_MS).unwrap(),
+        None,
+        "heard from {LIVE_WITHIN_MS} ms ago: live"
+    );
     let g = s.lease(&new, 11 + LIVE_WITHIN_MS).unwrap().expect("the old worker has gone quiet");
     s.complete(&g.lease_id, sums(&g, 1.0), 12 + LIVE_WITHIN_MS).unwrap();
     assert_eq!(s.job("j").unwrap().renderers, [OLD, NEW]);
-    assert!(s.lease(&old, 13 + LIVE_WITHIN_MS).unwrap().is_some(), "the job has both now: both may go on");
+    assert!(
+        s.lease(&old, 13 + LIVE_WITHIN_MS).unwrap().is_some(),
+        "the job has both now: both may go on"
+    );
 }
 
 #[test]

@@ -69,7 +69,11 @@ pub(super) struct Mock {
 impl Mock {
     pub(super) fn new(heartbeat_ms: u64, script: Vec<Step>) -> Arc<Mock> {
         let log = Log { script: script.into(), ..Log::default() };
-        Arc::new(Mock { heartbeat_ms, scene: std::fs::read(furnace_path()).unwrap(), log: Mutex::new(log) })
+        Arc::new(Mock {
+            heartbeat_ms,
+            scene: std::fs::read(furnace_path()).unwrap(),
+            log: Mutex::new(log),
+        })
     }
 
     pub(super) fn log(&self) -> std::sync::MutexGuard<'_, Log> {
@@ -78,13 +82,26 @@ impl Mock {
 }
 
 pub(super) fn problem(status: StatusCode, detail: &str) -> Response {
-    let p = Problem { kind: "about:blank".into(), title: status.to_string(), status: status.as_u16(), detail: detail.into(), field: None };
-    (status, [(header::CONTENT_TYPE, "application/problem+json")], serde_json::to_string(&p).unwrap()).into_response()
+    let p = Problem {
+        kind: "about:blank".into(),
+        title: status.to_string(),
+        status: status.as_u16(),
+        detail: detail.into(),
+        field: None,
+    };
+    (
+        status,
+        [(header::CONTENT_TYPE, "application/problem+json")],
+        serde_json::to_string(&p).unwrap(),
+    )
+        .into_response()
 }
 
 async fn auth(State(mock): State<Arc<Mock>>, req: Request, next: Next) -> Response {
     let expected = format!("Bearer {TOKEN}");
-    if req.headers().get(header::AUTHORIZATION).and_then(|v| v.to_str().ok()) != Some(expected.as_str()) {
+    if req.headers().get(header::AUTHORIZATION).and_then(|v| v.to_str().ok())
+        != Some(expected.as_str())
+    {
         mock.log().unauthorized += 1;
         return problem(StatusCode::UNAUTHORIZED, "missing or wrong token");
     }
@@ -97,13 +114,19 @@ async fn register(State(mock): State<Arc<Mock>>, Json(hello): Json<WorkerHello>)
     if log.predates_renderer_ids && !hello.renderer.is_empty() {
         // Word for word what such a coordinator (4c87afa) answered.
         let at = "at line 1 column 80";
-        return problem(StatusCode::BAD_REQUEST, &format!("Failed to deserialize the JSON body into the target type: renderer: unknown field `renderer`, expected `name` or `threads` {at}"));
+        return problem(
+            StatusCode::BAD_REQUEST,
+            &format!(
+                "Failed to deserialize the JSON body into the target type: renderer: unknown field `renderer`, expected `name` or `threads` {at}"
+            ),
+        );
     }
     log.renderers.push(hello.renderer);
     log.registrations += 1;
     let worker_id = format!("w{}", log.registrations);
     log.known.insert(worker_id.clone());
-    (StatusCode::CREATED, Json(Registration { worker_id, heartbeat_ms: mock.heartbeat_ms })).into_response()
+    (StatusCode::CREATED, Json(Registration { worker_id, heartbeat_ms: mock.heartbeat_ms }))
+        .into_response()
 }
 
 async fn lease(State(mock): State<Arc<Mock>>, Json(req): Json<LeaseRequest>) -> Response {
@@ -133,12 +156,20 @@ async fn heartbeat(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Res
     Json(Heartbeat { deadline_ms: 30_000 }).into_response()
 }
 
-async fn result(State(mock): State<Arc<Mock>>, Path(id): Path<String>, RawQuery(query): RawQuery, headers: HeaderMap, body: axum::body::Bytes) -> Response {
-    let content_type = headers.get(header::CONTENT_TYPE).and_then(|v| v.to_str().ok()).unwrap_or("").to_owned();
+async fn result(
+    State(mock): State<Arc<Mock>>,
+    Path(id): Path<String>,
+    RawQuery(query): RawQuery,
+    headers: HeaderMap,
+    body: axum::body::Bytes,
+) -> Response {
+    let content_type =
+        headers.get(header::CONTENT_TYPE).and_then(|v| v.to_str().ok()).unwrap_or("").to_owned();
     let slow = {
         let mut log = mock.log();
         log.results.push((id.clone(), content_type, body.to_vec(), Instant::now()));
-        let header = |name: &str| headers.get(name).and_then(|v| v.to_str().ok()).unwrap_or("").to_owned();
+        let header =
+            |name: &str| headers.get(name).and_then(|v| v.to_str().ok()).unwrap_or("").to_owned();
         let ms = header("x-tessera-prepare-ms").parse().unwrap_or(f64::NAN);
         log.prepared.push((id.clone(), header("x-tessera-prepare"), ms));
         log.memory.push((header("x-tessera-rss"), header("x-tessera-peak-rss")));
@@ -157,7 +188,10 @@ async fn result(State(mock): State<Arc<Mock>>, Path(id): Path<String>, RawQuery(
     let asks_for_next = query.as_deref() == Some("next=true");
     if asks_for_next {
         let wanted = mock.log().carry_after_lease_requests;
-        wait_until("the lease requests sent before this result", Duration::from_secs(30), || mock.log().lease_requests.len() >= wanted).await;
+        wait_until("the lease requests sent before this result", Duration::from_secs(30), || {
+            mock.log().lease_requests.len() >= wanted
+        })
+        .await;
     }
     let mut log = mock.log();
     if log.stale_results.contains(&id) {
@@ -183,7 +217,11 @@ async fn release(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Respo
 async fn deregister(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {
     let mut log = mock.log();
     log.deregistered.push((Instant::now(), id.clone()));
-    if log.known.remove(&id) { StatusCode::NO_CONTENT.into_response() } else { problem(StatusCode::NOT_FOUND, "unknown worker") }
+    if log.known.remove(&id) {
+        StatusCode::NO_CONTENT.into_response()
+    } else {
+        problem(StatusCode::NOT_FOUND, "unknown worker")
+    }
 }
 
 async fn scene(State(mock): State<Arc<Mock>>, Path(id): Path<String>) -> Response {

@@ -3,8 +3,8 @@
 //! from then on), and later leases find that scene without the file.
 use super::*;
 use crate::client::prepare::How;
-use tessera_render::scene::Preparation;
 use std::sync::Mutex;
+use tessera_render::scene::Preparation;
 
 fn lease(id: &str, scene_id: &str, frame: u32) -> Lease {
     let Step::Lease(mut l) = small(id, 0, [0, 2]) else { unreachable!() };
@@ -20,18 +20,29 @@ async fn a_still_files_buffers_are_dropped_once_its_scene_is_made() {
     let worker = Worker::new(&config(&base)).unwrap();
     let held = |id: &str| {
         let mut cache = worker.scenes.lock().unwrap();
-        (cache.sequences.get(&id.to_owned()).is_some(), cache.animations.get(&id.to_owned()).map(|a| a.len()))
+        (
+            cache.sequences.get(&id.to_owned()).is_some(),
+            cache.animations.get(&id.to_owned()).map(|a| a.len()),
+        )
     };
 
     let (still, prepared) = worker.frame_scene(&lease("a", SCENE_ID, 0)).await.unwrap();
     assert_eq!(prepared.how, How::Build);
-    assert_eq!(held(SCENE_ID), (false, Some(0)), "the still file's sequence is dropped, its (empty) animation list kept");
+    assert_eq!(
+        held(SCENE_ID),
+        (false, Some(0)),
+        "the still file's sequence is dropped, its (empty) animation list kept"
+    );
     let (again, prepared) = worker.frame_scene(&lease("b", SCENE_ID, 0)).await.unwrap();
     assert_eq!(prepared.how, How::Cached);
     assert!(Arc::ptr_eq(&still, &again));
 
     worker.frame_scene(&lease("c", ANIMATED_ID, 0)).await.unwrap();
-    assert_eq!(held(ANIMATED_ID), (true, Some(1)), "an animated file's sequence stays for its next frames");
+    assert_eq!(
+        held(ANIMATED_ID),
+        (true, Some(1)),
+        "an animated file's sequence stays for its next frames"
+    );
     let (_, prepared) = worker.frame_scene(&lease("d", ANIMATED_ID, 1)).await.unwrap();
     assert_eq!(prepared.how, How::Refit);
     assert_eq!(mock.log().scene_downloads, 2, "each file once");
@@ -61,7 +72,12 @@ async fn the_prepare_hook_hears_builds_and_refits_before_they_start() {
     let mut worker = Worker::new(&config(&base)).unwrap();
     worker.prepare_hook = hear;
     let mut heard = Vec::new();
-    for (id, scene, frame, how) in [("a", ANIMATED_ID, 0, How::Build), ("b", ANIMATED_ID, 2, How::Refit), ("c", ANIMATED_ID, 2, How::Cached), ("d", SCENE_ID, 0, How::Build)] {
+    for (id, scene, frame, how) in [
+        ("a", ANIMATED_ID, 0, How::Build),
+        ("b", ANIMATED_ID, 2, How::Refit),
+        ("c", ANIMATED_ID, 2, How::Cached),
+        ("d", SCENE_ID, 0, How::Build),
+    ] {
         let (_, prepared) = worker.frame_scene(&lease(id, scene, frame)).await.unwrap();
         assert_eq!(prepared.how, how);
         heard.push(std::mem::take(&mut *HEARD.lock().unwrap()));

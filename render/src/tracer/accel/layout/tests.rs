@@ -1,7 +1,7 @@
 use super::*;
 use crate::tracer::chi2::Rng;
-use obvhs::{BvhBuildParams, cwbvh::builder::build_cwbvh_from_tris, triangle::Triangle};
 use glam::Vec3A;
+use obvhs::{BvhBuildParams, cwbvh::builder::build_cwbvh_from_tris, triangle::Triangle};
 use std::time::Duration;
 
 /// Small random triangles in clusters, so that nodes hold leaf children of one to three.
@@ -19,7 +19,12 @@ fn random_tree(seed: u64, count: usize) -> CwBvh {
 
 /// Each leaf child's (first slot, count).
 fn leaves(bvh: &CwBvh) -> Vec<(u32, u32)> {
-    bvh.nodes.iter().flat_map(|n| (0..8).filter(|&c| n.child_meta[c] != 0 && n.is_leaf(c)).map(|c| n.child_primitives(c))).collect()
+    bvh.nodes
+        .iter()
+        .flat_map(|n| {
+            (0..8).filter(|&c| n.child_meta[c] != 0 && n.is_leaf(c)).map(|c| n.child_primitives(c))
+        })
+        .collect()
 }
 
 #[test]
@@ -28,13 +33,20 @@ fn every_primitive_keeps_one_slot_and_leaves_keep_their_triangles() {
         let before = random_tree(seed, count);
         let mut after = before.clone();
         pack_leaves(&mut after);
-        let real: Vec<u32> = after.primitive_indices.iter().copied().filter(|&p| p != PAD).collect();
+        let real: Vec<u32> =
+            after.primitive_indices.iter().copied().filter(|&p| p != PAD).collect();
         let mut sorted = real.clone();
         sorted.sort_unstable();
-        assert_eq!(sorted, (0..count as u32).collect::<Vec<_>>(), "seed {seed}: each primitive once");
+        assert_eq!(
+            sorted,
+            (0..count as u32).collect::<Vec<_>>(),
+            "seed {seed}: each primitive once"
+        );
         assert_eq!(after.primitive_indices.len() % 4, 0, "whole packets");
         for (b, a) in leaves(&before).into_iter().zip(leaves(&after)) {
-            let of = |bvh: &CwBvh, (first, n): (u32, u32)| bvh.primitive_indices[first as usize..(first + n) as usize].to_vec();
+            let of = |bvh: &CwBvh, (first, n): (u32, u32)| {
+                bvh.primitive_indices[first as usize..(first + n) as usize].to_vec()
+            };
             assert_eq!(of(&before, b), of(&after, a), "a leaf child's triangles, in order");
         }
         // Padding is never named by a node, and the hit mask's leaf bits stay below bit 24.

@@ -57,8 +57,12 @@ impl Node {
     /// parallel; the inner children then bottom-up, each the union of its node's child boxes.
     pub(super) fn of_tree(bvh: &CwBvh, slot_box: impl Fn(usize) -> Aabb + Sync) -> Vec<Node> {
         let mut nodes: Vec<Node> = bvh.nodes.iter().map(Node::empty_with_links).collect();
-        let mut node_box: Vec<Aabb> =
-            nodes.par_iter_mut().zip(&bvh.nodes).with_min_len(256).map(|(node, n)| node.set_leaves(n, &slot_box)).collect();
+        let mut node_box: Vec<Aabb> = nodes
+            .par_iter_mut()
+            .zip(&bvh.nodes)
+            .with_min_len(256)
+            .map(|(node, n)| node.set_leaves(n, &slot_box))
+            .collect();
         // Children before parents: the reverse of a depth-first order from the root.
         for &i in depth_first(bvh).iter().rev() {
             let node = &bvh.nodes[i];
@@ -78,8 +82,11 @@ impl Node {
         for child in (0..8).filter(|&c| n.child_meta[c] != 0 && n.imask & (1 << c) == 0) {
             let (first, count) = n.child_primitives(child);
             let meta = n.child_meta[child];
-            self.leaf_bits[child / 4][child % 4] = (u32::from(meta >> 5) << (meta & 0b1_1111)) as f32;
-            let aabb = (first..first + count).map(|slot| slot_box(slot as usize)).fold(Aabb::INVALID, |a, b| a.union(&b));
+            self.leaf_bits[child / 4][child % 4] =
+                (u32::from(meta >> 5) << (meta & 0b1_1111)) as f32;
+            let aabb = (first..first + count)
+                .map(|slot| slot_box(slot as usize))
+                .fold(Aabb::INVALID, |a, b| a.union(&b));
             self.set(child, &aabb);
             leaves = leaves.union(&aabb);
         }
@@ -89,12 +96,23 @@ impl Node {
     /// No box: every ray misses it (its near plane is at +∞ or its far one at −∞).
     const EMPTY: Node = {
         let (lo, hi) = ([Vec4::INFINITY; 2], [Vec4::NEG_INFINITY; 2]);
-        Node { rows: [lo, hi, lo, hi, lo, hi], leaf_bits: [Vec4::ZERO; 2], child_base: 0, primitive_base: 0, imask: 0 }
+        Node {
+            rows: [lo, hi, lo, hi, lo, hi],
+            leaf_bits: [Vec4::ZERO; 2],
+            child_base: 0,
+            primitive_base: 0,
+            imask: 0,
+        }
     };
 
     /// No boxes yet, and the links of obvhs's node `n`.
     fn empty_with_links(n: &CwBvhNode) -> Node {
-        Node { child_base: n.child_base_idx, primitive_base: n.primitive_base_idx, imask: u32::from(n.imask), ..Node::EMPTY }
+        Node {
+            child_base: n.child_base_idx,
+            primitive_base: n.primitive_base_idx,
+            imask: u32::from(n.imask),
+            ..Node::EMPTY
+        }
     }
 
     fn set(&mut self, child: usize, aabb: &Aabb) {
@@ -106,7 +124,11 @@ impl Node {
 
     /// Child `child`'s box as (min, max) corners (min > max for an empty child slot).
     pub(super) fn child(&self, child: usize) -> (Vec3A, Vec3A) {
-        let corner = |side: usize| Vec3A::from_array(std::array::from_fn(|axis| self.rows[2 * axis + side][child / 4][child % 4]));
+        let corner = |side: usize| {
+            Vec3A::from_array(std::array::from_fn(|axis| {
+                self.rows[2 * axis + side][child / 4][child % 4]
+            }))
+        };
         (corner(0), corner(1))
     }
 }
@@ -118,7 +140,8 @@ impl Node {
 /// the cost of the tree as built to tell when moved triangles have worn the tree out.
 pub(super) fn walk_cost(nodes: &[Node]) -> f64 {
     let Some(root) = nodes.first() else { return 0.0 };
-    let child_box = |node: &Node, c: usize| Some(node.child(c)).filter(|(lo, hi)| lo.cmple(*hi).all());
+    let child_box =
+        |node: &Node, c: usize| Some(node.child(c)).filter(|(lo, hi)| lo.cmple(*hi).all());
     let area = |(lo, hi): (Vec3A, Vec3A)| {
         let d = (hi - lo).as_dvec3();
         2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
@@ -131,9 +154,12 @@ pub(super) fn walk_cost(nodes: &[Node]) -> f64 {
         (0..8).filter_map(|c| child_box(node, c).map(|b| area(b) * f64::from(tests(c)))).sum()
     };
     // Summed in fixed chunks, then the chunks in order: the same figure on any number of threads.
-    let chunks: Vec<f64> = nodes.par_chunks(1024).map(|chunk| chunk.iter().map(node_work).sum()).collect();
+    let chunks: Vec<f64> =
+        nodes.par_chunks(1024).map(|chunk| chunk.iter().map(node_work).sum()).collect();
     let work: f64 = chunks.iter().sum();
-    let (lo, hi) = (0..8).filter_map(|c| child_box(root, c)).fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), (l, h)| (lo.min(l), hi.max(h)));
+    let (lo, hi) = (0..8)
+        .filter_map(|c| child_box(root, c))
+        .fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), (l, h)| (lo.min(l), hi.max(h)));
     let root_area = area((lo, hi));
     if root_area > 0.0 { work / root_area } else { 0.0 }
 }
@@ -197,7 +223,9 @@ pub(super) fn hits<const AVX: bool>(node: &Node, slabs: &Slabs, ray: &Ray, oct_i
     }
     let (lo, hi) = (entered(node, slabs, ray.tmax, 0), entered(node, slabs, ray.tmax, 1));
     let children = lo.bitmask() | hi.bitmask() << 4;
-    let leaves = (Vec4::select(lo, node.leaf_bits[0], Vec4::ZERO) + Vec4::select(hi, node.leaf_bits[1], Vec4::ZERO)).element_sum() as u32;
+    let leaves = (Vec4::select(lo, node.leaf_bits[0], Vec4::ZERO)
+        + Vec4::select(hi, node.leaf_bits[1], Vec4::ZERO))
+    .element_sum() as u32;
     hit_mask(node, children, leaves, oct_inv4)
 }
 
@@ -232,7 +260,8 @@ static XOR_PERMUTED: [[u8; 256]; 8] = {
 /// Lane i set: the ray enters child 4·`half` + i's box on [NEAREST, t_max].
 #[inline(always)]
 fn entered(node: &Node, slabs: &Slabs, t_max: f32, half: usize) -> BVec4A {
-    let distance = |axis: usize, row: usize| (node.rows[row][half] - slabs.origin[axis]) * slabs.inv[axis];
+    let distance =
+        |axis: usize, row: usize| (node.rows[row][half] - slabs.origin[axis]) * slabs.inv[axis];
     let ([near_x, near_y, near_z], [far_x, far_y, far_z]) = (slabs.near, slabs.far);
     let (nx, ny, nz) = (distance(0, near_x), distance(1, near_y), distance(2, near_z));
     let (fx, fy, fz) = (distance(0, far_x), distance(1, far_y), distance(2, far_z));

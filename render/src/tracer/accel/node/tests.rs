@@ -45,10 +45,16 @@ fn child_boxes_are_tight_and_inside_the_quantized_ones() {
         for child in (0..8).filter(|&c| node.child_meta[c] != 0) {
             let (lo, hi) = b.child(child);
             let q = |bytes: [u8; 8], axis: usize| node.p[axis] + f32::from(bytes[child]) * e[axis];
-            let q_lo = Vec3A::new(q(node.child_min_x, 0), q(node.child_min_y, 1), q(node.child_min_z, 2));
-            let q_hi = Vec3A::new(q(node.child_max_x, 0), q(node.child_max_y, 1), q(node.child_max_z, 2));
+            let q_lo =
+                Vec3A::new(q(node.child_min_x, 0), q(node.child_min_y, 1), q(node.child_min_z, 2));
+            let q_hi =
+                Vec3A::new(q(node.child_max_x, 0), q(node.child_max_y, 1), q(node.child_max_z, 2));
             // One ulp of slack: q_lo and q_hi are rounded here.
-            assert!(lo.cmpge(q_lo - q_lo.abs() * 1e-6).all() && hi.cmple(q_hi + q_hi.abs() * 1e-6).all(), "child {child}: {lo}..{hi} not in {q_lo}..{q_hi}");
+            assert!(
+                lo.cmpge(q_lo - q_lo.abs() * 1e-6).all()
+                    && hi.cmple(q_hi + q_hi.abs() * 1e-6).all(),
+                "child {child}: {lo}..{hi} not in {q_lo}..{q_hi}"
+            );
             assert!(lo.cmple(hi).all(), "child {child}: empty box {lo}..{hi}");
             if node.imask & (1 << child) == 0 {
                 let (first, count) = node.child_primitives(child);
@@ -56,7 +62,10 @@ fn child_boxes_are_tight_and_inside_the_quantized_ones() {
                 for slot in first..first + count {
                     let t = &tris[bvh.primitive_indices[slot as usize] as usize];
                     for v in [t.v0, t.v1, t.v2] {
-                        assert!(v.cmpge(lo).all() && v.cmple(hi).all(), "vertex {v} outside {lo}..{hi}");
+                        assert!(
+                            v.cmpge(lo).all() && v.cmple(hi).all(),
+                            "vertex {v} outside {lo}..{hi}"
+                        );
                         (v_lo, v_hi) = (v_lo.min(v), v_hi.max(v));
                     }
                 }
@@ -79,7 +88,8 @@ fn every_entered_child_is_kept_and_no_more_than_obvhs_keeps() {
     let (mut tested, mut entered, mut differ, mut tighter) = (0, 0, 0, 0);
     for k in 0..2000 {
         let o = Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 140.0 - Vec3A::splat(20.0);
-        let d = (Vec3A::new(rng.f32(), rng.f32(), rng.f32()) - Vec3A::splat(0.5)).normalize_or(Vec3A::X);
+        let d = (Vec3A::new(rng.f32(), rng.f32(), rng.f32()) - Vec3A::splat(0.5))
+            .normalize_or(Vec3A::X);
         // Every fourth ray along an axis, with zeros of both signs in the other components.
         let d = if k % 4 == 3 { Vec3A::new(-0.0, 0.0, d.z.signum()) } else { d };
         let tmax = if k % 2 == 0 { f32::INFINITY } else { 40.0 };
@@ -91,13 +101,17 @@ fn every_entered_child_is_kept_and_no_more_than_obvhs_keeps() {
             let mask = hits::<false>(b, &slabs, &ray, oct);
             let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct);
             for child in 0..8 {
-                let bits = ((child_bits8 >> (8 * child)) as u32 & 0xff) << ((bit_index8 >> (8 * child)) as u32 & 0xff);
+                let bits = ((child_bits8 >> (8 * child)) as u32 & 0xff)
+                    << ((bit_index8 >> (8 * child)) as u32 & 0xff);
                 if bits == 0 {
                     continue; // an empty slot
                 }
                 let (lo, hi) = b.child(child);
                 let kept = mask & bits == bits;
-                assert!(kept || !enters(&ray, lo, hi), "ray {k}: child {child} culled though entered");
+                assert!(
+                    kept || !enters(&ray, lo, hi),
+                    "ray {k}: child {child} culled though entered"
+                );
                 tested += 1;
                 entered += usize::from(kept);
             }
@@ -113,7 +127,10 @@ fn every_entered_child_is_kept_and_no_more_than_obvhs_keeps() {
     // Both answers were exercised; the tight boxes cull more than the quantized ones, and keep
     // more only where rounding at a face decides (none on this run's rays).
     assert!(tested > 100_000 && entered > 1000 && entered < tested, "{entered} of {tested}");
-    assert!(differ * 1000 < tested, "{differ} nodes keep children obvhs's test culls, of {tested} children");
+    assert!(
+        differ * 1000 < tested,
+        "{differ} nodes keep children obvhs's test culls, of {tested} children"
+    );
     assert!(tighter > 0, "the tight boxes never culled more than obvhs's");
 }
 
@@ -137,14 +154,16 @@ fn the_256_bit_test_keeps_what_the_128_bit_test_keeps() {
     let (mut kept, mut tested) = (0u32, 0u32);
     for k in 0..4000 {
         let o = Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 140.0 - Vec3A::splat(20.0);
-        let d = (Vec3A::new(rng.f32(), rng.f32(), rng.f32()) - Vec3A::splat(0.5)).normalize_or(Vec3A::X);
+        let d = (Vec3A::new(rng.f32(), rng.f32(), rng.f32()) - Vec3A::splat(0.5))
+            .normalize_or(Vec3A::X);
         let d = match k % 4 {
             3 => Vec3A::new(-0.0, 0.0, d.z.signum()),
             // At a corner of a child box, where rounding decides whether the ray enters it.
             1 => {
                 let node = &nodes[rng.next_u32() as usize % nodes.len()];
                 let (lo, hi) = node.child(rng.next_u32() as usize % 8);
-                let corner = Vec3A::select(glam::BVec3A::new(k & 8 == 0, k & 16 == 0, k & 32 == 0), lo, hi);
+                let corner =
+                    Vec3A::select(glam::BVec3A::new(k & 8 == 0, k & 16 == 0, k & 32 == 0), lo, hi);
                 if corner.is_finite() { (corner - o).normalize_or(Vec3A::X) } else { d }
             }
             _ => d,

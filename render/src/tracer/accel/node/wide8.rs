@@ -20,13 +20,18 @@ pub(super) unsafe fn entered(node: &Node, slabs: &Slabs, t_max: f32) -> (u32, u3
     unsafe {
         let row = |r: usize| _mm256_load_ps(node.rows[r].as_ptr().cast::<f32>());
         let distance = |axis: usize, r: usize| {
-            _mm256_mul_ps(_mm256_sub_ps(row(r), _mm256_set1_ps(slabs.origin[axis].x)), _mm256_set1_ps(slabs.inv[axis].x))
+            _mm256_mul_ps(
+                _mm256_sub_ps(row(r), _mm256_set1_ps(slabs.origin[axis].x)),
+                _mm256_set1_ps(slabs.inv[axis].x),
+            )
         };
         let ([near_x, near_y, near_z], [far_x, far_y, far_z]) = (slabs.near, slabs.far);
         let (nx, ny, nz) = (distance(0, near_x), distance(1, near_y), distance(2, near_z));
         let (fx, fy, fz) = (distance(0, far_x), distance(1, far_y), distance(2, far_z));
-        let t_min = _mm256_max_ps(_mm256_max_ps(nx, ny), _mm256_max_ps(nz, _mm256_set1_ps(NEAREST)));
-        let t_far = _mm256_mul_ps(_mm256_min_ps(_mm256_min_ps(fx, fy), fz), _mm256_set1_ps(FAR_SCALE));
+        let t_min =
+            _mm256_max_ps(_mm256_max_ps(nx, ny), _mm256_max_ps(nz, _mm256_set1_ps(NEAREST)));
+        let t_far =
+            _mm256_mul_ps(_mm256_min_ps(_mm256_min_ps(fx, fy), fz), _mm256_set1_ps(FAR_SCALE));
         let mask = _mm256_cmp_ps::<_CMP_LE_OS>(t_min, _mm256_min_ps(t_far, _mm256_set1_ps(t_max)));
         let leaf = _mm256_and_ps(mask, _mm256_load_ps(node.leaf_bits.as_ptr().cast::<f32>()));
         // Disjoint integers below 2²⁴: every partial sum is exact, in any order.

@@ -26,7 +26,10 @@ fn every_lane_of_a_packet_answers_as_the_triangle_alone() {
         for (lane, tri) in tris.iter().enumerate().filter(|&(l, _)| lanes >> l & 1 == 1) {
             let alone = intersect_triangle(&ray, tri, t_max);
             let packed = (c.hits >> lane & 1 == 1).then(|| (c.t[lane], c.b1[lane], c.b2[lane]));
-            assert_eq!(packed.map(|h| (h.0.to_bits(), h.1.to_bits(), h.2.to_bits())), alone.map(|h| (h.0.to_bits(), h.1.to_bits(), h.2.to_bits())));
+            assert_eq!(
+                packed.map(|h| (h.0.to_bits(), h.1.to_bits(), h.2.to_bits())),
+                alone.map(|h| (h.0.to_bits(), h.1.to_bits(), h.2.to_bits()))
+            );
             if alone.is_some() { hits += 1 } else { misses += 1 }
         }
     }

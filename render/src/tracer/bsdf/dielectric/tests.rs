@@ -49,7 +49,10 @@ fn rough_glass_samples_agree_with_eval_and_pdf_on_both_sides() {
                 let Some(s) = d.sample(wo, rng.f32(), rng.vec2()) else { continue };
                 transmitted += (s.wi.z < 0.0) as u32;
                 let (f, pdf) = (d.eval(wo, s.wi), d.pdf(wo, s.wi));
-                assert!((s.f - f).abs().max_element() <= 1e-3 * f.max_element().max(1e-3), "{s:?} vs {f}");
+                assert!(
+                    (s.f - f).abs().max_element() <= 1e-3 * f.max_element().max(1e-3),
+                    "{s:?} vs {f}"
+                );
                 assert!((s.pdf - pdf).abs() <= 1e-3 * pdf.max(1e-3), "{s:?} vs {pdf}");
             }
         }

@@ -86,7 +86,10 @@ fn table_is_what_the_generator_computes() {
             for (k, stored) in [table::E[j][i], table::E_FW[j][i]].into_iter().enumerate() {
                 let fresh = t[k][j][i];
                 // Six printed decimals, then an f32 rounding.
-                assert!((stored as f64 - fresh).abs() <= 1e-6, "table {k} node ({i}, {j}): {stored} vs {fresh}");
+                assert!(
+                    (stored as f64 - fresh).abs() <= 1e-6,
+                    "table {k} node ({i}, {j}): {stored} vs {fresh}"
+                );
             }
         }
     }
@@ -111,7 +114,10 @@ fn generator_agrees_with_quadrature() {
                 fw * ggx::reference::reflect_brdf(a, o, wi) * wi.z * 4.0 * cos_oh
             };
             let (quad, err) = chi2::integrate_sphere(&Grid::hemisphere(DVec3::Z, a), &integrand);
-            assert!((value - quad).abs() <= 5e-4 + err, "{name} at μ={mu}, α={a}: {value} vs quadrature {quad} ± {err}");
+            assert!(
+                (value - quad).abs() <= 5e-4 + err,
+                "{name} at μ={mu}, α={a}: {value} vs quadrature {quad} ± {err}"
+            );
         }
     }
 }
@@ -122,13 +128,20 @@ fn generator_agrees_with_quadrature() {
 #[test]
 fn white_metal_albedo_is_the_tabulated_one() {
     let mut rng = Rng::new(50);
-    for (roughness, deg) in [(1.0f32, 0.0f32), (0.7, 60.0), (0.45, 80.0), (0.2, 89.0), (0.05, 45.0)] {
+    for (roughness, deg) in [(1.0f32, 0.0f32), (0.7, 60.0), (0.45, 80.0), (0.2, 89.0), (0.05, 45.0)]
+    {
         let (e, _) = lookup(dir(deg).z, roughness);
         assert!(e <= 1.0, "E({deg}°, r={roughness}) = {e}");
         let b = Bsdf::Pbr(Pbr::new(Vec3::ONE, 1.0, roughness));
         // Interpolation error between nodes (bounded by the node spacing of a smooth E).
         let interp = 2e-3;
-        check::albedo_is(&format!("white metal r={roughness} θ={deg}"), &b, dir(deg), (e as f64, interp), &mut rng);
+        check::albedo_is(
+            &format!("white metal r={roughness} θ={deg}"),
+            &b,
+            dir(deg),
+            (e as f64, interp),
+            &mut rng,
+        );
     }
 }
 

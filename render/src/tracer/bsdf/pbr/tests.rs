@@ -6,20 +6,14 @@ use crate::tracer::chi2::{self, Grid, Rng};
 use glam::DVec3;
 
 fn pbr(base: Vec3, [metallic, roughness, specular]: [f32; 3]) -> Pbr {
-    Pbr {
-        specular,
-        ..Pbr::new(base, metallic, roughness)
-    }
+    Pbr { specular, ..Pbr::new(base, metallic, roughness) }
 }
 
 /// Plastic, glossy plastic (α = 0.01), coloured metal, and a half-metal with a tinted,
 /// weakened specular layer.
 fn cases() -> [(&'static str, Pbr); 4] {
     let tint = Vec3::new(1.0, 0.5, 0.2);
-    let mixed = Pbr {
-        specular_color: tint,
-        ..pbr(Vec3::splat(0.5), [0.5, 0.8, 0.5])
-    };
+    let mixed = Pbr { specular_color: tint, ..pbr(Vec3::splat(0.5), [0.5, 0.8, 0.5]) };
     [
         ("plastic", pbr(Vec3::new(0.8, 0.5, 0.2), [0.0, 0.5, 1.0])),
         ("glossy", pbr(Vec3::splat(0.5), [0.0, 0.1, 1.0])),
@@ -37,11 +31,7 @@ fn specular_zero_is_exactly_lambert() {
     let mut rng = Rng::new(40);
     let base = Vec3::new(0.7, 0.4, 0.1);
     let tint = Vec3::new(2.0, 1.0, 0.5);
-    let p = Bsdf::Pbr(Pbr {
-        ior: 1.9,
-        specular_color: tint,
-        ..pbr(base, [0.0, 0.3, 0.0])
-    });
+    let p = Bsdf::Pbr(Pbr { ior: 1.9, specular_color: tint, ..pbr(base, [0.0, 0.3, 0.0]) });
     let l = Bsdf::Lambert(Lambert { albedo: base });
     for _ in 0..10_000 {
         let ((wo, wi), ul, u) = (random_pair(&mut rng), rng.f32(), rng.vec2());
@@ -83,11 +73,8 @@ fn khr_reference(p: &Pbr, o: DVec3, i: DVec3) -> DVec3 {
 fn matches_khr_formulas() {
     let mut rng = Rng::new(41);
     let tint = Vec3::new(15.0, 1.0, 0.3);
-    let p = Pbr {
-        ior: 1.8,
-        specular_color: tint,
-        ..pbr(Vec3::new(0.9, 0.5, 0.1), [0.3, 0.6, 0.8])
-    };
+    let p =
+        Pbr { ior: 1.8, specular_color: tint, ..pbr(Vec3::new(0.9, 0.5, 0.1), [0.3, 0.6, 0.8]) };
     for _ in 0..10_000 {
         let (wo, wi) = random_pair(&mut rng);
         let expected = khr_reference(&p, wo.as_dvec3(), wi.as_dvec3());
@@ -134,11 +121,7 @@ fn albedo_by_quadrature(p: &Pbr, wo: Vec3) -> (f64, f64) {
     let integrand = |h: DVec3| {
         let wi = 2.0 * o.dot(h) * h - o;
         let inside = o.dot(h) > 0.0 && wi.z > 0.0;
-        if inside {
-            khr_reference(p, o, wi).y * wi.z * 4.0 * o.dot(h)
-        } else {
-            0.0
-        }
+        if inside { khr_reference(p, o, wi).y * wi.z * 4.0 * o.dot(h) } else { 0.0 }
     };
     let grid = Grid::hemisphere(DVec3::Z, (p.roughness * p.roughness) as f64);
     chi2::integrate_sphere(&grid, &integrand)
@@ -187,20 +170,13 @@ fn white_metal_loses_energy_at_high_roughness() {
     for (roughness, deg) in [(1.0f32, 0.0f32), (0.7, 60.0)] {
         let (a, o) = ((roughness * roughness) as f64, dir(deg).as_dvec3());
         let integrand = |wi: DVec3| ggx::reference::reflect_brdf(a, o, wi) * wi.z;
-        let (albedo, err) =
-            chi2::integrate_sphere(&Grid::hemisphere(DVec3::Z, 1.0), &integrand);
+        let (albedo, err) = chi2::integrate_sphere(&Grid::hemisphere(DVec3::Z, 1.0), &integrand);
         if roughness == 1.0 {
             chi2::assert_quadrature("E(α=1, μ=1)", albedo, 1.0 - 2f64.ln(), err);
         }
         assert!(albedo < 0.95, "α={a}: albedo {albedo}");
         let b = Bsdf::Pbr(Pbr::new(Vec3::ONE, 1.0, roughness));
-        check::albedo_is(
-            &format!("white metal α={a}"),
-            &b,
-            dir(deg),
-            (albedo, err),
-            &mut rng,
-        );
+        check::albedo_is(&format!("white metal α={a}"), &b, dir(deg), (albedo, err), &mut rng);
     }
 }
 
@@ -216,13 +192,7 @@ fn consistency_boundaries_and_black() {
         Bsdf::Pbr(pbr(base, [metallic, 0.5, specular])).is_black()
     };
     assert!(black(Vec3::ZERO, [0.0, 0.0]));
-    assert!(
-        !black(Vec3::ZERO, [0.0, 1.0]),
-        "a black dielectric keeps its specular layer"
-    );
-    assert!(
-        !black(Vec3::ZERO, [1.0, 1.0]),
-        "a black metal still reflects at grazing angles"
-    );
+    assert!(!black(Vec3::ZERO, [0.0, 1.0]), "a black dielectric keeps its specular layer");
+    assert!(!black(Vec3::ZERO, [1.0, 1.0]), "a black metal still reflects at grazing angles");
     assert!(!black(Vec3::splat(0.1), [0.0, 0.0]));
 }

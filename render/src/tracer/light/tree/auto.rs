@@ -50,7 +50,12 @@ impl Spread {
 
     /// Measures the choices among `lights[..tree.len()]` at receivers on the triangles
     /// `positions` for which `scatters(t)`.
-    pub fn measure(tree: &LightTree, lights: &[Light], positions: &[[Vec3; 3]], scatters: impl Fn(usize) -> bool) -> Spread {
+    pub fn measure(
+        tree: &LightTree,
+        lights: &[Light],
+        positions: &[[Vec3; 3]],
+        scatters: impl Fn(usize) -> bool,
+    ) -> Spread {
         let lights = &lights[..tree.len()];
         let powers: Vec<f32> = lights.iter().map(|l| l.power(1.0).max(0.0)).collect();
         let total_power: f32 = powers.iter().sum();
@@ -70,7 +75,9 @@ impl Spread {
                 continue;
             }
             // Σ f²/p over the lights, for the choice that picks light k with probability p(k).
-            let second_moment = |p: &dyn Fn(usize) -> f64| f.iter().enumerate().map(|(k, fk)| fk * fk / p(k).max(1e-30)).sum::<f64>();
+            let second_moment = |p: &dyn Fn(usize) -> f64| {
+                f.iter().enumerate().map(|(k, fk)| fk * fk / p(k).max(1e-30)).sum::<f64>()
+            };
             var_power += second_moment(&|k| by_power[k]) - sum * sum;
             var_tree += second_moment(&|k| tree.pmf(k, x, n) as f64) - sum * sum;
             mean_sq += sum * sum;
@@ -91,7 +98,12 @@ impl LightTree {
     /// Whether the `auto` light sampler chooses through this tree over the leading triangle
     /// lights of `lights`, in a scene of triangles `positions` of which those with
     /// `scatters(t)` reflect or transmit light (see the module).
-    pub fn suits(&self, lights: &[Light], positions: &[[Vec3; 3]], scatters: impl Fn(usize) -> bool) -> bool {
+    pub fn suits(
+        &self,
+        lights: &[Light],
+        positions: &[[Vec3; 3]],
+        scatters: impl Fn(usize) -> bool,
+    ) -> bool {
         match self.len() {
             0 | 1 => false,
             c if c >= LightTree::MIN_LIGHTS => true,
@@ -123,7 +135,10 @@ fn receiver(i: usize, cdf: &[f64], area: f64, positions: &[[Vec3; 3]]) -> Option
     let v = &positions[t];
     let n = (v[1] - v[0]).cross(v[2] - v[0]).try_normalize()?;
     // The R2 sequence's two irrationals (Roberts 2018), folded onto the triangle.
-    let (mut b1, mut b2) = ((i as f64 * 0.754_877_666_246_692_7).fract() as f32, (i as f64 * 0.569_840_290_998_053_2).fract() as f32);
+    let (mut b1, mut b2) = (
+        (i as f64 * 0.754_877_666_246_692_7).fract() as f32,
+        (i as f64 * 0.569_840_290_998_053_2).fract() as f32,
+    );
     if b1 + b2 > 1.0 {
         (b1, b2) = (1.0 - b1, 1.0 - b2);
     }
@@ -135,10 +150,17 @@ fn receiver(i: usize, cdf: &[f64], area: f64, positions: &[[Vec3; 3]]) -> Option
 /// sub-triangle's distance is kept at least the square root of its area, so a receiver
 /// touching the light gets a bounded share.
 fn unoccluded(light: &Light, x: Vec3, n: Vec3) -> f32 {
-    let Light::Triangle { v, n: ln, area, radiance, two_sided, texture, .. } = light else { return 0.0 };
+    let Light::Triangle { v, n: ln, area, radiance, two_sided, texture, .. } = light else {
+        return 0.0;
+    };
     let luminance = luminance(*radiance * texture.as_ref().map_or(Vec3::ONE, |t| t.mean));
     let m = [(v[0] + v[1]) * 0.5, (v[1] + v[2]) * 0.5, (v[2] + v[0]) * 0.5];
-    let centres = [(v[0] + m[0] + m[2]) / 3.0, (v[1] + m[0] + m[1]) / 3.0, (v[2] + m[1] + m[2]) / 3.0, (m[0] + m[1] + m[2]) / 3.0];
+    let centres = [
+        (v[0] + m[0] + m[2]) / 3.0,
+        (v[1] + m[0] + m[1]) / 3.0,
+        (v[2] + m[1] + m[2]) / 3.0,
+        (m[0] + m[1] + m[2]) / 3.0,
+    ];
     let quarter = area * 0.25;
     let each = |c: Vec3| {
         let d = x - c;

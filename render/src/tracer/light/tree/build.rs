@@ -9,7 +9,11 @@ impl LightTree {
     pub(super) fn build(lights: &[Light]) -> LightTree {
         let leaves: Vec<Leaf> = lights.iter().map(Leaf::of).collect();
         let power = leaves.iter().map(|l| l.power).sum();
-        let mut tree = LightTree { nodes: Vec::with_capacity(leaves.len() / 2 + 1), trails: vec![0; leaves.len()], power };
+        let mut tree = LightTree {
+            nodes: Vec::with_capacity(leaves.len() / 2 + 1),
+            trails: vec![0; leaves.len()],
+            power,
+        };
         let mut ids: Vec<u32> = (0..leaves.len() as u32).collect();
         if !ids.is_empty() {
             tree.grow(&leaves, &mut ids, 0, 0);
@@ -58,7 +62,9 @@ fn halves<'i>(leaves: &[Leaf], ids: &'i mut [u32]) -> (&'i mut [u32], &'i mut [u
     });
     let axis = (hi - lo).max_position();
     let mid = ids.len() / 2;
-    ids.select_nth_unstable_by(mid, |&a, &b| leaves[a as usize].centre[axis].total_cmp(&leaves[b as usize].centre[axis]).then(a.cmp(&b)));
+    ids.select_nth_unstable_by(mid, |&a, &b| {
+        leaves[a as usize].centre[axis].total_cmp(&leaves[b as usize].centre[axis]).then(a.cmp(&b))
+    });
     ids.split_at_mut(mid)
 }
 
@@ -74,9 +80,18 @@ struct Leaf {
 
 impl Leaf {
     fn of(light: &Light) -> Leaf {
-        let Light::Triangle { v, n, two_sided, .. } = light else { unreachable!("a light tree holds triangles only") };
+        let Light::Triangle { v, n, two_sided, .. } = light else {
+            unreachable!("a light tree holds triangles only")
+        };
         let (lo, hi) = (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2]));
-        Leaf { lo, hi, centre: (v[0] + v[1] + v[2]) / 3.0, normal: *n, power: light.power(0.0).max(0.0), two_sided: *two_sided }
+        Leaf {
+            lo,
+            hi,
+            centre: (v[0] + v[1] + v[2]) / 3.0,
+            normal: *n,
+            power: light.power(0.0).max(0.0),
+            two_sided: *two_sided,
+        }
     }
 }
 
@@ -107,7 +122,14 @@ impl Bounds {
         let widest = ids.iter().map(|&i| w.dot(leaves[i as usize].normal)).fold(1.0f32, f32::min);
         // Widened by the margin: the cone must hold every normal despite rounding.
         let cos_o = (widest - COS_MARGIN).clamp(-1.0, 1.0);
-        Bounds { centre: (lo + hi) * 0.5, r2: (hi - lo).length_squared() * 0.25, w, cos_o, power, two_sided }
+        Bounds {
+            centre: (lo + hi) * 0.5,
+            r2: (hi - lo).length_squared() * 0.25,
+            w,
+            cos_o,
+            power,
+            two_sided,
+        }
     }
 }
 

@@ -108,7 +108,8 @@ pub enum LightSampler {
 }
 
 impl LightSampler {
-    pub const ALL: [LightSampler; 3] = [LightSampler::Auto, LightSampler::Power, LightSampler::Tree];
+    pub const ALL: [LightSampler; 3] =
+        [LightSampler::Auto, LightSampler::Power, LightSampler::Tree];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -132,10 +133,9 @@ impl LightSampler {
 impl FromStr for LightSampler {
     type Err = String;
     fn from_str(s: &str) -> Result<LightSampler, String> {
-        LightSampler::ALL
-            .into_iter()
-            .find(|l| l.name() == s)
-            .ok_or_else(|| format!("unknown light sampler {s:?} (expected one of auto, power, tree)"))
+        LightSampler::ALL.into_iter().find(|l| l.name() == s).ok_or_else(|| {
+            format!("unknown light sampler {s:?} (expected one of auto, power, tree)")
+        })
     }
 }
 
@@ -244,14 +244,16 @@ impl Inner {
     #[inline]
     fn importance(&self, p: Vec3, n: Vec3) -> Vec4 {
         let (one, zero) = (Vec4::ONE, Vec4::ZERO);
-        let (dx, dy, dz) = (Vec4::splat(p.x) - self.cx, Vec4::splat(p.y) - self.cy, Vec4::splat(p.z) - self.cz);
+        let (dx, dy, dz) =
+            (Vec4::splat(p.x) - self.cx, Vec4::splat(p.y) - self.cy, Vec4::splat(p.z) - self.cz);
         let d2 = dx * dx + dy * dy + dz * dz;
         // Each sine and cosine below is a length over d, and the lengths' square roots are
         // independent, so they run side by side instead of each waiting for the one before: the
         // walk is a chain of levels, and its time is this function's latency.
         let wd = self.wx * dx + self.wy * dy + self.wz * dz;
         let wd = Vec4::select(self.two_sided.cmpgt(zero), wd.abs(), wd);
-        let (d, beside_b, beside_w) = (sqrt(d2), sqrt((d2 - self.r2).max(zero)), sqrt((d2 - wd * wd).max(zero)));
+        let (d, beside_b, beside_w) =
+            (sqrt(d2), sqrt((d2 - self.r2).max(zero)), sqrt((d2 - wd * wd).max(zero)));
         let inv_d = d.recip();
         // θb: the half-angle the bounding sphere subtends at p.
         let (cos_b, sin_b) = (beside_b * inv_d, (self.r * inv_d).min(one));
@@ -279,7 +281,10 @@ impl Inner {
 #[inline(always)]
 fn angle_minus(cos_a: Vec4, sin_a: Vec4, cos_b: Vec4, sin_b: Vec4) -> (Vec4, Vec4) {
     let none = cos_a.cmpgt(cos_b);
-    (Vec4::select(none, Vec4::ONE, cos_a * cos_b + sin_a * sin_b), Vec4::select(none, Vec4::ZERO, sin_a * cos_b - cos_a * sin_b))
+    (
+        Vec4::select(none, Vec4::ONE, cos_a * cos_b + sin_a * sin_b),
+        Vec4::select(none, Vec4::ZERO, sin_a * cos_b - cos_a * sin_b),
+    )
 }
 
 /// Lane-wise square root, one instruction on x86_64 (glam's takes four); IEEE-exact either way.

@@ -22,7 +22,8 @@ fn scattered(count: usize, seed: u64) -> Vec<Light> {
             let t = n.any_orthonormal_vector();
             let (b, s) = (n.cross(t), 0.05 + 0.3 * rng.f32());
             let v = [c + t * s, c + b * s, c - (t + b) * s];
-            Light::triangle(i as u32, &v, Vec3::splat(1.0 + i as f32 / 1000.0), i % 4 == 0).expect("a real triangle")
+            Light::triangle(i as u32, &v, Vec3::splat(1.0 + i as f32 / 1000.0), i % 4 == 0)
+                .expect("a real triangle")
         })
         .collect()
 }
@@ -119,12 +120,18 @@ fn evenly_spaced_numbers_pick_each_light_as_often_as_its_probability() {
         }
     }
     let lost = 1.0 - (0..lights.len()).map(|i| f64::from(tree.pmf(i, p, n))).sum::<f64>();
-    assert!((f64::from(none) - lost * f64::from(draws)).abs() <= 2.0 + 1e-3 * f64::from(draws), "{none} draws found nothing, expected {lost} of them");
+    assert!(
+        (f64::from(none) - lost * f64::from(draws)).abs() <= 2.0 + 1e-3 * f64::from(draws),
+        "{none} draws found nothing, expected {lost} of them"
+    );
     // The choice maps [0, 1) onto one interval per light, of its probability's length, so
     // evenly spaced numbers hit each the expected number of times up to the ends.
     for (i, &c) in count.iter().enumerate() {
         let expected = f64::from(tree.pmf(i, p, n)) * f64::from(draws);
-        assert!((f64::from(c) - expected).abs() <= 2.0 + expected * 1e-4, "light {i}: {c} picks, expected {expected}");
+        assert!(
+            (f64::from(c) - expected).abs() <= 2.0 + expected * 1e-4,
+            "light {i}: {c} picks, expected {expected}"
+        );
     }
 }
 
@@ -164,7 +171,9 @@ fn every_light_that_faces_a_point_can_be_picked_for_it() {
 fn irradiance(set: &LightSet, p: Vec3, n: Vec3, samples: usize, rng: &mut Rng) -> (f64, f64) {
     let (mut s, mut s2) = (0.0f64, 0.0f64);
     for _ in 0..samples {
-        let v = set.sample(p, n, rng.vec2()).map_or(0.0, |ls| f64::from(ls.li.x * n.dot(ls.wi).max(0.0) / ls.pdf));
+        let v = set
+            .sample(p, n, rng.vec2())
+            .map_or(0.0, |ls| f64::from(ls.li.x * n.dot(ls.wi).max(0.0) / ls.pdf));
         (s, s2) = (s + v, s2 + v * v);
     }
     let mean = s / samples as f64;
@@ -178,14 +187,25 @@ fn the_tree_estimates_the_same_irradiance_as_choosing_by_power_with_less_noise_u
     let by_power = LightSet::new(&lights, Vec3::ZERO, 10.0);
     let by_tree = LightSet::with_tree(&lights, Some(&tree), Vec3::ZERO, 10.0);
     let mut rng = Rng::new(9);
-    for p in [Vec3::new(3.02, 0.0, 4.03), Vec3::new(0.0, 0.0, 0.0), Vec3::new(7.3, 0.0, 1.1), Vec3::new(-2.0, 0.0, 3.0)] {
+    for p in [
+        Vec3::new(3.02, 0.0, 4.03),
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(7.3, 0.0, 1.1),
+        Vec3::new(-2.0, 0.0, 3.0),
+    ] {
         let (power, power_err) = irradiance(&by_power, p, Vec3::Y, 200_000, &mut rng);
         let (tree, tree_err) = irradiance(&by_tree, p, Vec3::Y, 200_000, &mut rng);
         let z = (tree - power) / power_err.hypot(tree_err);
-        assert!(z.abs() < 4.5, "at {p}: tree {tree:.5} ± {tree_err:.1e}, power {power:.5} ± {power_err:.1e} (z = {z:.2})");
+        assert!(
+            z.abs() < 4.5,
+            "at {p}: tree {tree:.5} ± {tree_err:.1e}, power {power:.5} ± {power_err:.1e} (z = {z:.2})"
+        );
         // Under the grid a point is lit mostly by the lamps overhead, which the tree favours.
         if p.x >= 0.0 {
-            assert!(tree_err < 0.5 * power_err, "at {p}: the tree's error {tree_err:.2e} against {power_err:.2e} by power");
+            assert!(
+                tree_err < 0.5 * power_err,
+                "at {p}: the tree's error {tree_err:.2e} against {power_err:.2e} by power"
+            );
         }
     }
 }
@@ -217,7 +237,12 @@ fn area_densities_match_the_sampled_densities_through_the_tree() {
                     set.pdf_background(n, s.wi)
                 }
             };
-            assert!((s.pdf - expected).abs() <= 1e-4 * expected, "{} vs {expected}: {s:?} p {p} n {n} li {}", s.pdf, s.li.x);
+            assert!(
+                (s.pdf - expected).abs() <= 1e-4 * expected,
+                "{} vs {expected}: {s:?} p {p} n {n} li {}",
+                s.pdf,
+                s.li.x
+            );
         }
     }
     assert!(areas > 500 && others > 20, "{areas} area and {others} other samples");
@@ -262,7 +287,10 @@ fn specks_of_light_far_away_and_lights_bright_enough_to_overflow_are_still_sampl
         })
         .sum();
     let (got, err) = irradiance(&set, p, Vec3::NEG_Y, 20_000, &mut Rng::new(12));
-    assert!((got / expected - 1.0).abs() < 5e-3 && err < 1e-3 * expected, "{got:e} ± {err:e} vs {expected:e}");
+    assert!(
+        (got / expected - 1.0).abs() < 5e-3 && err < 1e-3 * expected,
+        "{got:e} ± {err:e} vs {expected:e}"
+    );
     // Radiance of 3e38: the importances overflow to ∞ near the lamps, and the choice goes on.
     let mut bright = lamp_grid();
     for l in &mut bright {
@@ -271,11 +299,15 @@ fn specks_of_light_far_away_and_lights_bright_enough_to_overflow_are_still_sampl
     }
     let tree = LightTree::over(&bright).expect("a tree");
     let p = Vec3::new(2.02, 0.29, 2.03);
-    let overflows = |node: &Inner| node.importance(p, Vec3::Y).to_array().iter().sum::<f32>() == f32::INFINITY;
+    let overflows =
+        |node: &Inner| node.importance(p, Vec3::Y).to_array().iter().sum::<f32>() == f32::INFINITY;
     assert!(tree.nodes.iter().any(overflows), "no node's importances overflow");
     for k in 0..64 {
         let (i, pmf, _) = tree.sample(p, Vec3::Y, (k as f32 + 0.5) / 64.0).expect("a light");
-        assert!(pmf > 0.0 && pmf.is_finite() && pmf == tree.pmf(i, p, Vec3::Y), "light {i}: pmf {pmf}");
+        assert!(
+            pmf > 0.0 && pmf.is_finite() && pmf == tree.pmf(i, p, Vec3::Y),
+            "light {i}: pmf {pmf}"
+        );
     }
 }
 
@@ -286,7 +318,13 @@ fn the_tree_gives_each_point_under_a_lamp_grid_its_exact_irradiance() {
     let tree = LightTree::over(&lights).expect("a tree");
     let set = LightSet::with_tree(&lights, Some(&tree), Vec3::ZERO, 10.0);
     let mut rng = Rng::new(13);
-    for p in [Vec3::new(3.02, 0.0, 4.03), Vec3::new(0.0, 0.0, 0.0), Vec3::new(7.3, 0.0, 1.1), Vec3::new(-2.0, 0.0, 3.0), Vec3::new(4.04, 0.299, 4.03)] {
+    for p in [
+        Vec3::new(3.02, 0.0, 4.03),
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(7.3, 0.0, 1.1),
+        Vec3::new(-2.0, 0.0, 3.0),
+        Vec3::new(4.04, 0.299, 4.03),
+    ] {
         let exact: f64 = lights
             .iter()
             .map(|l| {
@@ -296,7 +334,10 @@ fn the_tree_gives_each_point_under_a_lamp_grid_its_exact_irradiance() {
             .sum();
         let (got, err) = irradiance(&set, p, Vec3::Y, 2_000_000, &mut rng);
         let z = (got - exact) / err;
-        eprintln!("at {p}: {got:.6} ± {err:.1e} vs exact {exact:.6} ({:+.4} %, z {z:+.2})", (got / exact - 1.0) * 100.0);
+        eprintln!(
+            "at {p}: {got:.6} ± {err:.1e} vs exact {exact:.6} ({:+.4} %, z {z:+.2})",
+            (got / exact - 1.0) * 100.0
+        );
         assert!(z.abs() < 4.5, "at {p}: {got} ± {err:.1e} vs exact {exact} (z = {z:.2})");
     }
 }
