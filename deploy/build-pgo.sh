@@ -16,7 +16,7 @@
 #
 # Why: the render loop's branches and calls are laid out and inlined by what the training
 # renders did, not by guesses; that makes the Cornell box render 12-20 % faster and other
-# scenes up to 16 % (docs/performance.md, session 22). Floating-point results do not change
+# scenes up to 16 % (docs/dev/performance-log.md, 2026-12-04). Floating-point results do not change
 # (rustc enables no fast-math, and PGO changes no operation), so the build keeps the renderer
 # id and the bits of a plain build. The script checks that: the optimised binary renders every
 # training scene again and must give the instrumented build's pixel digests, or it fails.

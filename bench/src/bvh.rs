@@ -2,7 +2,7 @@
 //! spheres — or a bundled scene (`--scene cornell-box`): its BVH build time, incoherent
 //! closest-hit rays per second (one core, then all), the same rays through obvhs's stock
 //! traversal and triangle test, a path-traced render's rays per second on one core against both
-//! (issue #9: rendering should keep ≥ 70 % of the traversal rate, i.e. shading and sampling cost
+//! (the target: rendering keeps ≥ 70 % of the traversal rate, i.e. shading and sampling cost
 //! less than tracing), and the process's peak resident memory. Last, the render's own rays
 //! (logged by a second render) are traced alone through both BVHs: the fair comparison, since
 //! random rays are not the rays a path tracer traces (see [`crate::stock`]); for a glTF

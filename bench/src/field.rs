@@ -1,4 +1,4 @@
-//! The generated large scene of issue #9 (no mesh file is shipped): `spheres`² spheres on a
+//! The generated large scene (no mesh file is shipped): `spheres`² spheres on a
 //! grid, each a UV sphere of `SEGMENTS` × `SEGMENTS / 2` quads whose radius wobbles by ±15 %
 //! (sin 5θ · sin 7φ), so the triangles are small, numerous and not axis-aligned; grey Lambert
 //! spheres on a grey ground under a square area light that overhangs the field.

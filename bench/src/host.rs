@@ -4,7 +4,7 @@
 //! Why every run says it: the figures move with the host as much as with the code. Mitsuba's
 //! LLVM backend runs its wavefronts as wide as the CPU's vectors (16 lanes with AVX-512, 8 with
 //! AVX2), Tessera traces one path at a time, so the same tracer gave a time-to-quality ratio of
-//! 1.7–1.8 on a Zen 4 EPYC and 0.7–0.9 on a Zen 1 (docs/performance.md, sessions 22 and 23),
+//! 1.7–1.8 on a Zen 4 EPYC and 0.7–0.9 on a Zen 1 (docs/dev/performance-log.md, 2026-12-04),
 //! and a profile-guided build renders 9–20 % faster than a plain one. A figure is comparable
 //! only with others from the same CPU and build.
 

@@ -12,7 +12,7 @@
 //!                              round trips per second and merge cost.
 //! `tessera-bench effects`    — the tracer alone on one scene with the gated kernel, the matte
 //!                              kernel (Lambert + lights only) and every effect forced on.
-//! `tessera-bench accuracy`   — the accuracy study (issue #10): relMSE vs time per scene, estimator,
+//! `tessera-bench accuracy`   — the accuracy study: relMSE vs time per scene, estimator,
 //!                              sampler and roulette, plus tile/batch sizes through a local farm;
 //!                              writes docs/accuracy/ (tessera_bench::accuracy).
 //! `tessera-bench bvh`        — a generated ~1M-triangle scene (or `--scene NAME`): build time,

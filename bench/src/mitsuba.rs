@@ -1,4 +1,4 @@
-//! `tessera-bench mitsuba`: time to quality against Mitsuba 3 in one run (issue #9).
+//! `tessera-bench mitsuba`: time to quality against Mitsuba 3 in one run.
 //!
 //! The yardstick is relMSE × seconds to render the Cornell box (lower is better): the error of
 //! an image against a shared reference times the time it took. Both renderers render the same

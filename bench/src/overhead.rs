@@ -1,5 +1,5 @@
 //! `tessera-bench overhead`: the same job rendered by the tracer alone and through a coordinator
-//! and 1 worker over loopback HTTP (issue #3: target ≤ 3 %). Both deliver the same thing: the
+//! and 1 worker over loopback HTTP (target ≤ 3 %). Both deliver the same thing: the
 //! tracer alone renders the same units (all queued on its pool at once, each worked by every
 //! thread as the worker does, so it has no gaps between units), merges them into a frame and
 //! encodes the EXR too, so what differs is what distribution adds (HTTP, leases, merging on the

@@ -1,6 +1,6 @@
 //! The last part of `tessera-bench bvh`: the render's own rays, logged by an untimed render,
 //! traced alone through our BVH and through obvhs's, against the render itself. This is the
-//! comparison issue #9 asks for ("obvhs's own traversal benchmark on the same rays"): random
+//! fair comparison with obvhs's own traversal: random
 //! rays from anywhere in the scene's box are not what a path tracer traces (its rays start on
 //! surfaces, camera rays are coherent, and shadow rays end at a light).
 //!

@@ -2,7 +2,7 @@
 """Two builds of `tessera` side by side: instructions, CPU time and pixels, scene by scene.
 
 The plain release build's speed moves with the inliner's choices, and code far from the render
-loop can move those (docs/performance.md, session 32: a 4 % loss, found by building an older
+loop can move those (docs/dev/performance-log.md, 2026-12-06: a 4 % loss, found by building an older
 commit beside the current one). This script does that comparison:
 
 1. builds BASE (any commit) in a git worktree under target/compare/, and the working tree as

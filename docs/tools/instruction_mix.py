@@ -6,7 +6,7 @@ every executed x86-64 instruction by mnemonic (scalar or packed float arithmetic
 work, branches, ...) and prints the counts for BVH traversal (`Accel`'s `intersect_where`,
 `occluded_where`, `closest`, `blocked` and their AVX2 copies) and for the rest of the tracer
 (shading and sampling). It answers "what would running several paths in SIMD lanes shrink?"
-(docs/performance.md, 2026-12-03 session 16).
+(docs/dev/performance-log.md, 2026-12-03).
 
     valgrind --tool=callgrind --dump-instr=yes --callgrind-out-file=cg.out \
         target/release/tessera render cornell-box --width 48 --height 48 --spp 16 --threads 1
@@ -52,7 +52,7 @@ def classify(mnemonic):
 
 def group(function):
     # The walk is `Accel::closest`/`blocked`, or their AVX2 copies `closest_avx2`/`blocked_avx2`
-    # (session 26), inlined into `intersect_where`/`occluded_where` or called from them.
+    # (measured 2026-12-05), inlined into `intersect_where`/`occluded_where` or called from them.
     if function and 'tracer::accel' in function and any(name in function for name in TRACE_FUNCTIONS):
         return 'trace'
     if function and ('tessera_worker::tracer' in function or 'sincos' in function or 'sinf' in function):

@@ -7,7 +7,7 @@ name contains the given text (a closest-hit query `closest_avx2`, a shadow query
 per call are the function's fixed cost (prologue, setup, epilogue); those that ran k·calls
 times for other k are its loops (a node test runs once per node visited, a packet test once
 per packet). It prints the calls, the instructions per call, the fixed cost and the largest
-groups of instructions that ran equally often (docs/performance.md, session 31).
+groups of instructions that ran equally often (docs/dev/performance-log.md, 2026-12-06).
 
     valgrind --tool=callgrind --dump-instr=yes --callgrind-out-file=cg.out \
         target/release/tessera render cornell-box --width 48 --height 48 --spp 16 --threads 1

@@ -4,11 +4,11 @@
 //! was 10 ms) and reuses them meanwhile. A BVH build frees and allocates hundreds of MiB within
 //! that second, and not all of it is reused: a worker rendering a million triangles as a job
 //! peaked at 500 MiB resident with the default, 336–344 with 10 ms and 332 with 0
-//! (docs/performance.md, session 30). `tessera work`, `tessera render` and `tessera-bench bvh`
+//! (docs/dev/performance-log.md, 2026-12-06). `tessera work`, `tessera render` and `tessera-bench bvh`
 //! therefore take 10 ms while they build. An animation's later frames are the opposite case: a
 //! refit allocates what the frame before it freed, in the same sizes, so with 10 ms each frame
 //! faulted its pages in again (a refitted frame of the 1M-triangle field took 0.17–0.18 s on 2
-//! threads instead of 0.09–0.11; session 39). Workers say which they are about to do
+//! threads instead of 0.09–0.11; measured 2026-12-06). Workers say which they are about to do
 //! ([`tessera_worker::memory::on_prepare`]), and a refit restores the default for the frames
 //! that follow. `tessera serve` keeps the default: a coordinator cycles its unit buffers through
 //! exactly that reuse (its round trips fell by half with a delay of 0).

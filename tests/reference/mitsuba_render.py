@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Render a bundled scene with Mitsuba 3 and time it: the other side of
-`tessera-bench mitsuba` (issue #9's time-to-quality comparison).
+`tessera-bench mitsuba` (the time-to-quality comparison).
 
 The scene is read from its glTF by gltf_scene.py (the same float32 triangles,
 normals, materials and camera Tessera loads; `path` integrator, or `volpath`

@@ -108,7 +108,7 @@ pub fn converge(
 }
 
 /// relMSE of an image against a reference: mean over pixels and channels of
-/// (value − ref)² / (ref + 0.01)² (issue #10's definition; 0.01 keeps black pixels finite).
+/// (value − ref)² / (ref + 0.01)² (0.01 keeps black pixels finite).
 pub fn rel_mse(means: impl Iterator<Item = [f64; 3]>, reference: &[[f64; 3]]) -> f64 {
     let mut acc = 0.0;
     let mut n = 0usize;

@@ -1,4 +1,4 @@
-//! The accuracy study (issue #10): what accuracy costs in time.
+//! The accuracy study: what accuracy costs in time.
 //!
 //! For each scene of [`SCENES`], each estimator (naive, bsdf, light, mis), each sampler
 //! (independent, Sobol) and Russian roulette on/off, the tracer renders progressively at

@@ -9,7 +9,7 @@ use tessera_render::tracer::Estimator;
 pub fn markdown(study: &Study) -> String {
     let o = &study.options;
     let mut s = String::new();
-    let _ = writeln!(s, "# Accuracy costs time (issue #10)\n");
+    let _ = writeln!(s, "# Accuracy costs time\n");
     let machine = o.machine.clone().unwrap_or_else(crate::host::machine);
     let _ = writeln!(
         s,

@@ -8,8 +8,8 @@
 //!   non-specular bounce on, survive with probability max(β·η²), capped at 1.
 //!
 //! Job setting: `roulette_depth` (`POST /v1/jobs`, `--roulette-depth`), 0 = off, default
-//! [`DEFAULT_ROULETTE_DEPTH`]. Measurements behind the defaults: docs/performance.md,
-//! sessions 18–20.
+//! [`DEFAULT_ROULETTE_DEPTH`]. Measurements behind the defaults (2026-12-03 and 2026-12-04):
+//! docs/dev/performance-log.md.
 use glam::Vec3;
 
 /// Russian roulette on the path throughput β.
@@ -26,7 +26,7 @@ pub enum Roulette {
     /// channel. Specular bounces (smooth glass) do not count: they neither spread nor lose
     /// light the way a rough bounce does, and counting them ended the caustic paths that only
     /// BSDF sampling finds (glass scenes: 2.3–3.2× lower relMSE at equal spp and time;
-    /// docs/performance.md, session 20). `PathSettings::max_depth` still bounds such a chain.
+    /// docs/dev/performance-log.md, 2026-12-04). `PathSettings::max_depth` still bounds such a chain.
     Throughput {
         min_depth: u32,
     },
@@ -35,7 +35,7 @@ pub enum Roulette {
 /// The non-specular bounce from which [`Roulette::default`] may end paths. Five, as in
 /// Mitsuba 3: against three on eleven bundled scenes it lowered relMSE at equal spp everywhere,
 /// and relMSE × seconds in 19 of 22 cases (up to 2.2× on glass; the other three within
-/// run-to-run time noise, ≤ 9 %); docs/performance.md, session 19.
+/// run-to-run time noise, ≤ 9 %); docs/dev/performance-log.md, 2026-12-04.
 pub const DEFAULT_ROULETTE_DEPTH: u32 = 5;
 
 impl Roulette {

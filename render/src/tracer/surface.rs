@@ -50,7 +50,7 @@ impl Integrator<'_> {
     /// The first surface along `ray` that kernel `E` sees (alpha-cut hits skipped).
     // Always, with `Integrator::emitted`, rather than left to the inliner: after changes elsewhere
     // the plain build made `emitted` a call, so every hit's `Surface` was stored and copied to be
-    // lent to it (+2.5 % instructions, +4 % time on the Cornell box; docs/performance.md, session 32).
+    // lent to it (+2.5 % instructions, +4 % time on the Cornell box; docs/dev/performance-log.md, 2026-12-06).
     #[inline(always)]
     pub(crate) fn surface<E: EffectSet>(&self, ray: &Ray, u_glass: f32) -> Option<Surface> {
         #[cfg(feature = "bench")]

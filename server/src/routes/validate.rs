@@ -66,7 +66,10 @@ pub fn job_config(
     let time_limit_ms = match req.time_limit_s {
         Some(t) if t.is_finite() && t > 0.0 && t <= 1e7 => Some((t * 1000.0).ceil() as u64),
         Some(_) => {
-            return Err(AppError::field("time_limit_s", "time_limit_s must be in (0, 1e7] seconds"));
+            return Err(AppError::field(
+                "time_limit_s",
+                "time_limit_s must be in (0, 1e7] seconds",
+            ));
         }
         None => None,
     };

@@ -6,7 +6,7 @@
 //! least [`HISTORY_EVERY_MS`] apart, and 1 µs more for each pixel the last row recomputed, so
 //! they stay under a few per cent of the coordinator's time however large the frame. At a fixed
 //! 100 ms, a 1-megapixel job's rows took about a quarter of it (`tessera-bench roundtrips`,
-//! docs/performance.md, 2026-12-06).
+//! docs/dev/performance-log.md, 2026-12-06).
 //!
 //! A status request (`GET /v1/jobs/{id}`, and each event of a watched job, up to ten a second)
 //! reports the noise as of the last row, for the same reason: computing it afresh would cost a

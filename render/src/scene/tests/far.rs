@@ -1,4 +1,4 @@
-//! Case 2 of issue #5 through the loader: bundled scenes moved far from the origin by a parent
+//! Case 2 of the hard-case suite (docs/numerics.md) through the loader: bundled scenes moved far from the origin by a parent
 //! node's translation (as a file placing a model far away would) render as at the origin.
 //! Catches computing world positions in f32: at 1e5 the Cornell box's light (0.1 mm below the
 //! ceiling) merges with it, and at 1e6 the furnace's hit points round by 0.06 and leak light.

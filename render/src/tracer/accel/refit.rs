@@ -3,9 +3,9 @@
 //!
 //! The wide tree is refitted as the walk reads it: its nodes' tight f32 child boxes are made
 //! again from the triangles below each child ([`super::node::Node::of_tree`], as at build), over
-//! the links and packed primitive slots kept from the build. Until session 37 a refit moved the
-//! boxes of obvhs's binary tree and converted it to a wide tree again, most of a build's work:
-//! on the 1M-triangle field 0.57–0.66 s against a build's 0.85 s, now 0.08 s (`tessera-bench
+//! the links and packed primitive slots kept from the build. Refitting obvhs's binary tree and
+//! converting it to a wide tree again would be most of a build's work: on the 1M-triangle
+//! field that took 0.57–0.66 s against a build's 0.85 s, where this refit takes 0.08 s (`tessera-bench
 //! bvh`, docs/performance.md).
 //!
 //! A refittable tree holds every triangle with finite corners, the degenerate ones (see

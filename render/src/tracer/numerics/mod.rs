@@ -1,4 +1,4 @@
-//! The hard cases of issue #5: scenes and inputs built to break a path tracer numerically.
+//! The hard cases: scenes and inputs built to break a path tracer numerically.
 //! Each test names the naive implementation it catches; `docs/numerics.md` maps every case to
 //! its technique and test. Shared scene builders come from the integrator's tests.
 mod accumulation;

@@ -1,4 +1,4 @@
-//! The bad-input suite (issue #4): every malformed scene, job and result we know of, in one
+//! The bad-input suite: every malformed scene, job and result we know of, in one
 //! table, each with its status and a piece of its problem+json `detail`. The cases run against
 //! one coordinator holding a job in progress; after each, that job must be untouched, and at
 //! the end it must still finish with every sample counted once.

@@ -1,7 +1,7 @@
 //! # When the `auto` light sampler chooses through the tree
 //!
 //! From [`LightTree::MIN_LIGHTS`] emissive triangles on, always. Below that, the count says
-//! little (session 42, docs/performance.md): four lamps apart (8 triangles) reach a given
+//! little (2026-12-07, docs/dev/performance-log.md): four lamps apart (8 triangles) reach a given
 //! quality 2.6× sooner through the tree, a 16-facet sphere light 1.4× sooner, while a 12-face
 //! emissive enclosure takes 1.23× longer and a textured quad 1.08×. What decides is whether
 //! the lights differ in what they give the scene's surfaces, and whether the tree's choice

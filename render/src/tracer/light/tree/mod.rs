@@ -9,7 +9,7 @@
 //! cost more than the choice it improves (a 12-triangle emissive enclosure, `furnace`, takes
 //! 1.23× the relMSE·s through the tree). From 16 emissive triangles on, lamps apart and a
 //! tessellated sphere light both reached a given quality sooner through the tree
-//! (docs/tools/light_tree_study.py, docs/performance.md sessions 42 and 43).
+//! (docs/tools/light_tree_study.py, docs/dev/performance-log.md, 2026-12-07).
 //!
 //! Power alone fails where lights are many and spread out (a field of lamps, a lit window
 //! grid, an emissive mesh): a point is lit by the few lights near it and facing it, but is
@@ -103,7 +103,7 @@ pub enum LightSampler {
     /// In proportion to power alone (as Mitsuba 3 does).
     Power,
     /// Through the tree whenever the scene has area lights: a few lamps far apart are lit
-    /// sooner so (docs/performance.md, session 42).
+    /// sooner so (docs/dev/performance-log.md, 2026-12-07).
     Tree,
 }
 
@@ -142,7 +142,7 @@ impl FromStr for LightSampler {
 impl LightTree {
     /// From this many area lights on, `auto` chooses through the tree without judging the
     /// lights' spread (below, [`LightTree::suits`] judges it). The smallest power of two
-    /// at which every scene family measured gains (session 42: relMSE·s through the tree 0.26×
+    /// at which every scene family measured gains (2026-12-07: relMSE·s through the tree 0.26×
     /// on 16 lamps, 0.81× on a 32-facet sphere light); the bundled scenes have at most 24.
     pub const MIN_LIGHTS: usize = 32;
 
@@ -207,7 +207,7 @@ impl LightTree {
 
 /// The child whose interval of [0, Σ weights) `x` falls in, and where that interval starts.
 // A search with branches, not a branch-free count: the core runs ahead down the predicted
-// child, overlapping the next level's loads and roots; counting was 8–15 % slower (session 41).
+// child, overlapping the next level's loads and roots; counting was 8–15 % slower (measured 2026-12-07).
 fn pick(weights: &[f32; WIDTH], count: usize, x: f32) -> (usize, f32) {
     let (mut below, mut last) = (0.0f32, 0);
     for (k, &w) in weights.iter().enumerate().take(count) {
