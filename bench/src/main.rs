@@ -318,6 +318,7 @@ async fn fake_worker(
     let reg: tessera_proto::Registration = http
         .post(format!("{url}/v1/workers"))
         .json(&tessera_proto::WorkerHello {
+            protocol: tessera_proto::PROTOCOL_VERSION,
             name: format!("fake{i}"),
             threads: 1,
             renderer: tessera_render::renderer_id().to_owned(),

@@ -12,23 +12,43 @@ use crate::sums::TileRect;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
+/// The version of the worker protocol this build speaks. A coordinator registers only workers
+/// of a version it speaks ([`SUPPORTED_PROTOCOLS`]) and says so in its refusal, so a mismatch is
+/// one clear error at registration instead of misread leases later. Raise it with any change a
+/// worker or coordinator of the previous version would misread.
+pub const PROTOCOL_VERSION: u32 = 1;
+
+/// The worker protocol versions a coordinator of this build registers.
+pub const SUPPORTED_PROTOCOLS: std::ops::RangeInclusive<u32> = 1..=PROTOCOL_VERSION;
+
+fn first_protocol() -> u32 {
+    1
+}
+
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WorkerHello {
+    /// The worker protocol version the worker speaks ([`PROTOCOL_VERSION`]); absent from workers
+    /// built before versions were sent, which speak version 1.
+    #[serde(default = "first_protocol")]
+    #[schema(minimum = 1)]
+    pub protocol: u32,
     /// A human-readable name (host name by default).
     pub name: String,
     pub threads: u32,
     /// Which renderer the worker runs: `tessera <version> src:<hash> libm:<hash>` (its build's
     /// source hash and a probe of its libm). A job's units go to workers of one renderer while
     /// one is live, so its bits do not depend on who rendered what. Absent (empty) from workers
-    /// that predate it: they count as one renderer. Not sent when empty, so a worker can still
-    /// register with a coordinator that predates the field.
-    #[serde(default, skip_serializing_if = "String::is_empty")]
+    /// built before renderer ids: they count as one renderer.
+    #[serde(default)]
     pub renderer: String,
 }
 
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 pub struct Registration {
+    /// The worker protocol version the coordinator speaks with this worker.
+    #[serde(default = "first_protocol")]
+    pub protocol: u32,
     pub worker_id: String,
     /// Heartbeat at least this often while holding a lease.
     pub heartbeat_ms: u64,

@@ -21,7 +21,10 @@ pub use job::{
     FrameRange, FrameStatus, Job, JobList, JobRequest, JobState, Progress, RenderParams,
     WorkerContribution, WorkerFailures,
 };
-pub use lease::{Heartbeat, Lease, LeaseRequest, Registration, WorkerHello, WorkerInfo};
+pub use lease::{
+    Heartbeat, Lease, LeaseRequest, PROTOCOL_VERSION, Registration, SUPPORTED_PROTOCOLS,
+    WorkerHello, WorkerInfo,
+};
 pub use problem::Problem;
 pub use scene::{SceneAnimation, SceneListing, SceneUploaded};
 pub use sums::{PartialSums, SumsError, TileRect, WirePixel};

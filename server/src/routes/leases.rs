@@ -8,8 +8,8 @@ use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use std::sync::atomic::Ordering;
 use tessera_proto::{
-    Heartbeat, Lease, LeaseRequest, PartialSums, Problem, Registration, WorkerHello, WorkerInfo,
-    sums,
+    Heartbeat, Lease, LeaseRequest, PartialSums, Problem, Registration, SUPPORTED_PROTOCOLS,
+    WorkerHello, WorkerInfo, sums,
 };
 
 /// Register a worker; returns its id.
@@ -18,6 +18,17 @@ pub async fn register(
     State(st): State<AppState>,
     Json(hello): Json<WorkerHello>,
 ) -> Result<impl IntoResponse, AppError> {
+    if !SUPPORTED_PROTOCOLS.contains(&hello.protocol) {
+        return Err(AppError::field(
+            "protocol",
+            format!(
+                "the worker speaks worker protocol {}; this coordinator speaks {}..={}: run workers and coordinator of one release",
+                hello.protocol,
+                SUPPORTED_PROTOCOLS.start(),
+                SUPPORTED_PROTOCOLS.end()
+            ),
+        ));
+    }
     if hello.name.len() > 256 {
         return Err(AppError::field("name", "name must be at most 256 bytes"));
     }
@@ -42,7 +53,10 @@ pub async fn register(
     );
     tracing::info!(worker = %id, name = %hello.name, threads = hello.threads, renderer = %hello.renderer, "worker registered");
     let heartbeat_ms = (st.config.lease_timeout_ms / 3).max(100);
-    Ok((StatusCode::CREATED, axum::Json(Registration { worker_id: id, heartbeat_ms })))
+    Ok((
+        StatusCode::CREATED,
+        axum::Json(Registration { protocol: hello.protocol, worker_id: id, heartbeat_ms }),
+    ))
 }
 
 /// A worker leaving (on shutdown): its leases go back to the queue at once, its long polls end,

@@ -72,7 +72,7 @@ use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-use tessera_proto::{Lease, Registration, WorkerHello};
+use tessera_proto::{Lease, PROTOCOL_VERSION, Registration, WorkerHello};
 use tessera_render::scene::Preparation;
 use tokio::sync::oneshot;
 use tokio::task::JoinHandle;
@@ -354,31 +354,19 @@ impl Worker {
         }
     }
 
-    /// Registers, retrying until it works; None on shutdown.
-    ///
-    /// A coordinator older than renderer ids refuses the `renderer` field (its hello denies
-    /// unknown fields): the worker then registers without it, so upgrading workers before the
-    /// coordinator does not stop them; that coordinator mixes renderers anyway.
+    /// Registers, retrying until it works; None on shutdown. A coordinator that does not speak
+    /// this worker's protocol version refuses it, saying which versions it speaks (one that
+    /// predates versions refuses the unknown `protocol` field): that is fatal, not retried.
     async fn register(&self, stop: &Stop) -> anyhow::Result<Option<Registration>> {
         let threads = u32::try_from(self.pool.current_num_threads()).unwrap_or(u32::MAX);
-        let mut hello = WorkerHello {
+        let hello = WorkerHello {
+            protocol: PROTOCOL_VERSION,
             name: self.name.clone(),
             threads,
             renderer: tessera_render::renderer_id().to_owned(),
         };
-        let mut answer =
+        let answer =
             until_done("registration", stop, Duration::ZERO, || self.api.register(&hello)).await;
-        if let Retried::Fatal(e) = &answer
-            && e.contains("unknown field `renderer`")
-        {
-            warn!(
-                coordinator = self.api.base(),
-                "the coordinator predates renderer ids: registering without one (upgrade it to keep each job on one renderer)"
-            );
-            hello.renderer.clear();
-            answer = until_done("registration", stop, Duration::ZERO, || self.api.register(&hello))
-                .await;
-        }
         match answer {
             Retried::Done(reg) => {
                 info!(worker_id = %reg.worker_id, heartbeat_ms = reg.heartbeat_ms, coordinator = self.api.base(), renderer = %hello.renderer, "registered");

@@ -313,20 +313,41 @@ async fn reregisters_after_a_404_on_lease() {
     assert_eq!(&workers[..3], ["w1", "w1", "w2"], "leases are requested as w2 after the 404");
 }
 
-/// A coordinator older than renderer ids refuses the hello's `renderer`: the worker registers
-/// without it and works.
+/// A worker registers with its protocol version and renderer id; a coordinator that speaks
+/// another version refuses it, and the worker stops with that refusal at once instead of
+/// retrying or leasing units it could misread.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn registers_without_a_renderer_with_a_coordinator_that_predates_them() {
+async fn a_coordinator_of_another_protocol_version_refuses_the_worker_which_stops_saying_why() {
     let mock = Mock::new(3000, vec![small("a", 0, [0, 2])]);
-    mock.log().predates_renderer_ids = true;
     let base = start(&mock).await;
     let worker = spawn_worker(&base);
     wait_until("the result arrives", Duration::from_secs(30), || mock.log().results.len() == 1)
         .await;
     let (report, _) = worker.stop(Duration::from_secs(10)).await;
-
     assert_eq!(report.units_done, 1);
-    assert_eq!(mock.log().renderers, [""], "registered once, without a renderer");
+    assert_eq!(
+        mock.log().renderers,
+        [tessera_render::renderer_id()],
+        "registered with its renderer id"
+    );
+
+    let newer = Mock::new(3000, vec![small("a", 0, [0, 2])]);
+    newer.log().speaks_protocols =
+        Some(tessera_proto::PROTOCOL_VERSION + 1..=tessera_proto::PROTOCOL_VERSION + 1);
+    let base = start(&newer).await;
+    let (_tx, rx) = oneshot::channel::<()>();
+    let outcome = tokio::time::timeout(
+        Duration::from_secs(10),
+        run(config(&base), async move {
+            let _ = rx.await;
+        }),
+    )
+    .await
+    .expect("a refused worker stops by itself");
+    let err = outcome.expect_err("a refused registration is an error").to_string();
+    assert!(err.contains("refused to register") && err.contains("worker protocol 1"), "{err}");
+    assert_eq!(newer.log().registrations, 0);
+    assert!(newer.log().lease_requests.is_empty(), "no lease is asked for");
 }
 
 /// (6) Shutdown while idle (204s) returns promptly, as does shutdown while the coordinator is

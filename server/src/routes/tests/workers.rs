@@ -25,6 +25,39 @@ async fn registering_returns_an_id_and_the_heartbeat_period() {
 }
 
 #[tokio::test]
+async fn registration_names_the_protocol_version_and_refuses_one_this_coordinator_does_not_speak() {
+    let api = Api::new("w-register-protocol");
+    let version = tessera_proto::PROTOCOL_VERSION;
+    let r = api
+        .post_json("/v1/workers", &json!({"protocol": version, "name": "a", "threads": 1}))
+        .await;
+    r.expect(StatusCode::CREATED);
+    assert_eq!(r.json()["protocol"], version);
+    // Workers built before versions were sent speak version 1.
+    let r = api.post_json("/v1/workers", &json!({"name": "b", "threads": 1})).await;
+    r.expect(StatusCode::CREATED);
+    assert_eq!(r.json()["protocol"], 1);
+    for other in [0, version + 1] {
+        let p = api
+            .post_json("/v1/workers", &json!({"protocol": other, "name": "c", "threads": 1}))
+            .await
+            .problem(StatusCode::BAD_REQUEST);
+        assert_eq!(p.field.as_deref(), Some("protocol"), "{p:?}");
+        assert!(
+            p.detail.contains(&format!(
+                "worker protocol {other}; this coordinator speaks 1..={version}"
+            )),
+            "{p:?}"
+        );
+    }
+    assert_eq!(
+        api.get("/v1/workers").await.json().as_array().unwrap().len(),
+        2,
+        "refused workers are not listed"
+    );
+}
+
+#[tokio::test]
 async fn registering_with_zero_threads_is_a_400_naming_threads() {
     let api = Api::new("w-register-0");
     let p = api

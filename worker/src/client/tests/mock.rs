@@ -54,8 +54,8 @@ pub(super) struct Log {
     /// arrived: the worker sends its prefetch's request and its last upload concurrently, and
     /// the script's order must not depend on which the scheduler lets through first.
     pub(super) carry_after_lease_requests: usize,
-    /// Refuse a hello that names a renderer, as coordinators older than renderer ids do.
-    pub(super) predates_renderer_ids: bool,
+    /// The protocol versions this coordinator registers (None: any).
+    pub(super) speaks_protocols: Option<std::ops::RangeInclusive<u32>>,
     /// The renderer of every accepted registration.
     pub(super) renderers: Vec<String>,
 }
@@ -111,21 +111,27 @@ async fn auth(State(mock): State<Arc<Mock>>, req: Request, next: Next) -> Respon
 async fn register(State(mock): State<Arc<Mock>>, Json(hello): Json<WorkerHello>) -> Response {
     assert!(hello.threads >= 1);
     let mut log = mock.log();
-    if log.predates_renderer_ids && !hello.renderer.is_empty() {
-        // Word for word what such a coordinator (4c87afa) answered.
-        let at = "at line 1 column 80";
+    if let Some(speaks) = &log.speaks_protocols
+        && !speaks.contains(&hello.protocol)
+    {
         return problem(
             StatusCode::BAD_REQUEST,
             &format!(
-                "Failed to deserialize the JSON body into the target type: renderer: unknown field `renderer`, expected `name` or `threads` {at}"
+                "protocol: the worker speaks worker protocol {}; this coordinator speaks {}..={}",
+                hello.protocol,
+                speaks.start(),
+                speaks.end()
             ),
         );
     }
-    log.renderers.push(hello.renderer);
+    log.renderers.push(hello.renderer.clone());
     log.registrations += 1;
     let worker_id = format!("w{}", log.registrations);
     log.known.insert(worker_id.clone());
-    (StatusCode::CREATED, Json(Registration { worker_id, heartbeat_ms: mock.heartbeat_ms }))
+    (
+        StatusCode::CREATED,
+        Json(Registration { protocol: hello.protocol, worker_id, heartbeat_ms: mock.heartbeat_ms }),
+    )
         .into_response()
 }
 
