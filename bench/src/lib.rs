@@ -1,4 +1,4 @@
-//! Benchmark studies whose code is shared by `tessera-bench`, `tessera bench` and the tests that
+//! Benchmark studies of the `tessera-bench` command, and the tests that
 //! keep them working. Figures are printed and written as documents; nothing here asserts speed.
 pub mod accuracy;
 pub mod bvh;

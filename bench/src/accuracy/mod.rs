@@ -10,7 +10,7 @@
 //! time a coordinator with 1 or 3 local workers needs to reach a noise target, by tile size and
 //! batch size.
 //!
-//! Run it with `tessera-bench accuracy` (or `tessera bench accuracy`); `--quick` runs everything
+//! Run it with `tessera-bench accuracy`; `--quick` runs everything
 //! at tiny sizes in seconds (a test keeps that working).
 pub mod farm;
 pub mod measure;
