@@ -26,5 +26,5 @@ pub use lease::{
     WorkerHello, WorkerInfo,
 };
 pub use problem::Problem;
-pub use scene::{SceneAnimation, SceneListing, SceneUploaded};
+pub use scene::{SceneAnimation, SceneInfo};
 pub use sums::{PartialSums, SumsError, TileRect, WirePixel};

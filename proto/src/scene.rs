@@ -2,25 +2,14 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-/// `201 Created` answer to `POST /v1/scenes`.
+/// A scene a job can use: the answer to `POST /v1/scenes` and `GET /v1/scenes/{id}`, and one
+/// entry of `GET /v1/scenes`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct SceneUploaded {
-    /// sha256 of the uploaded bytes, lower-case hex.
-    pub id: String,
-    pub triangles: u64,
-    pub effects: Vec<String>,
-    pub cameras: Vec<String>,
-    /// The glTF animations a job may play (`"animation"`: a name or an index into this list).
-    #[serde(default)]
-    pub animations: Vec<SceneAnimation>,
-}
-
-/// One entry of `GET /v1/scenes`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct SceneListing {
-    /// sha256 of the scene bytes.
+pub struct SceneInfo {
+    /// sha256 of the scene bytes, lower-case hex.
     pub id: String,
     /// The bundled scene's name (usable in place of the id); null for uploads.
+    #[serde(default)]
     pub name: Option<String>,
     pub triangles: u64,
     pub effects: Vec<String>,

@@ -2,7 +2,7 @@
 use anyhow::{Context, bail};
 use std::path::Path;
 use std::time::Duration;
-use tessera_proto::{Job, JobRequest, Problem, SceneUploaded};
+use tessera_proto::{Job, JobRequest, Problem, SceneInfo};
 
 pub struct Coordinator {
     base: String,
@@ -36,11 +36,7 @@ impl Coordinator {
     }
 
     /// Uploads a scene file; returns its id.
-    pub async fn upload_scene(
-        &self,
-        bytes: Vec<u8>,
-        binary: bool,
-    ) -> anyhow::Result<SceneUploaded> {
+    pub async fn upload_scene(&self, bytes: Vec<u8>, binary: bool) -> anyhow::Result<SceneInfo> {
         let ct = if binary { "model/gltf-binary" } else { "model/gltf+json" };
         let resp = self
             .req(reqwest::Method::POST, "/v1/scenes")

@@ -18,6 +18,17 @@ pub struct SceneMeta {
     pub animations: Vec<SceneAnimation>,
 }
 
+/// Why a scene was not stored.
+#[derive(Debug, thiserror::Error)]
+pub enum PutError {
+    /// The bytes are not a scene this coordinator accepts (the reason names what is wrong).
+    #[error("{0}")]
+    Invalid(String),
+    /// A valid scene that could not be written to the store.
+    #[error("storing the scene failed: {0}")]
+    Storage(std::io::Error),
+}
+
 pub struct SceneStore {
     dir: PathBuf,
     meta: RwLock<HashMap<String, SceneMeta>>,
@@ -76,7 +87,7 @@ impl SceneStore {
             if name.len() != 64 || !name.bytes().all(|b| b.is_ascii_hexdigit()) {
                 continue;
             }
-            match std::fs::read(e.path()).map_err(|e| e.to_string()).and_then(|b| self.put(&b)) {
+            match std::fs::read(e.path()).map_err(PutError::Storage).and_then(|b| self.put(&b)) {
                 Ok(_) => {}
                 Err(err) => {
                     tracing::warn!(scene = %name, "ignoring a stored scene that no longer loads: {err}")
@@ -86,14 +97,13 @@ impl SceneStore {
     }
 
     /// Validates and stores a scene; idempotent.
-    pub fn put(&self, bytes: &[u8]) -> Result<SceneMeta, String> {
+    pub fn put(&self, bytes: &[u8]) -> Result<SceneMeta, PutError> {
         let id = scene_id(bytes);
         if let Some(m) = self.meta.read().expect("lock").get(&id) {
             return Ok(m.clone());
         }
-        let meta = self.describe(&id, bytes)?;
-        write_atomically(&self.dir.join(&id), bytes)
-            .map_err(|e| format!("storing the scene failed: {e}"))?;
+        let meta = self.describe(&id, bytes).map_err(PutError::Invalid)?;
+        write_atomically(&self.dir.join(&id), bytes).map_err(PutError::Storage)?;
         self.meta.write().expect("lock").insert(id, meta.clone());
         Ok(meta)
     }
@@ -131,6 +141,11 @@ impl SceneStore {
         let id = self.names.get(id_or_name).map(String::as_str).unwrap_or(id_or_name);
         self.ensure_described(id);
         self.meta.read().expect("lock").get(id).cloned()
+    }
+
+    /// The name of the bundled scene with this id, if it is one.
+    pub fn bundled_name(&self, id: &str) -> Option<String> {
+        self.names.iter().find(|(_, i)| *i == id).map(|(name, _)| name.clone())
     }
 
     /// Every stored scene: bundled ones first by name, then uploads by id.

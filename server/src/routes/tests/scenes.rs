@@ -32,6 +32,8 @@ async fn uploading_the_cornell_box_answers_its_hash_and_description() {
         "{effects:?}"
     );
     assert_eq!(scene["cameras"], json!(["Camera"]));
+    assert_eq!(scene["name"], "cornell-box", "the bundled scene's bytes answer with its name");
+    assert_eq!(api.get(&format!("/v1/scenes/{id}")).await.json(), scene, "described alike by id");
 
     let again = upload(&api, "model/gltf+json", bytes).await;
     again.expect(StatusCode::CREATED);
@@ -229,4 +231,18 @@ async fn the_scene_list_names_the_bundled_scenes_then_uploads() {
         "the upload, unnamed, after them"
     );
     assert_eq!(list.len(), names.len() + 1);
+}
+
+#[tokio::test]
+async fn a_valid_scene_the_store_cannot_write_is_a_507_not_a_422() {
+    let api = Api::new("s-storage");
+    std::fs::remove_dir_all(api.dir().join("scenes")).expect("the store's scene folder");
+    let mut bytes = cornell_bytes();
+    bytes.extend_from_slice(b"\n");
+    let p = upload(&api, "model/gltf+json", bytes.clone())
+        .await
+        .problem(StatusCode::INSUFFICIENT_STORAGE);
+    assert!(p.detail.starts_with("the scene is valid but storing it failed"), "{p:?}");
+    let id = sha256_hex(&bytes);
+    api.get(&format!("/v1/scenes/{id}")).await.problem(StatusCode::NOT_FOUND);
 }
