@@ -21,7 +21,7 @@
 //! kernels without them. A smooth glass bounce is a delta: no light sample is taken there, and
 //! emission found after it counts in full for every estimator.
 use crate::tracer::bsdf::{Bsdf, BsdfSample};
-use crate::tracer::effects::{AllEffects, EffectSet};
+use crate::tracer::kernel::{AllEffects, EffectSet};
 use crate::tracer::light::{LightSampler, LightSet, Target};
 use crate::tracer::ray::{Ray, SHADOW_EPSILON};
 #[cfg(feature = "bench")]

@@ -24,7 +24,7 @@
 //! `emissiveTexture` (sRGB, multiplies the emission). Textures hold values in [0, 1], so a
 //! texture can only darken its factor: a material black by its factors stays black.
 use crate::tracer::bsdf::{Bsdf, Dielectric, Lambert, Pbr, Phong};
-use crate::tracer::effects::EffectSet;
+use crate::tracer::kernel::EffectSet;
 use crate::tracer::texture::Texture;
 pub use crate::tracer::texture::TextureRef;
 use glam::{Vec2, Vec3};

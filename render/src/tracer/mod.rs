@@ -8,6 +8,7 @@ pub mod camera;
 pub mod effects;
 pub mod film;
 pub mod integrator;
+pub mod kernel;
 pub mod light;
 pub mod material;
 pub mod mesh;
@@ -29,9 +30,10 @@ mod chi2;
 #[cfg(test)]
 mod numerics;
 
-pub use effects::{Effects, KernelBits};
+pub use effects::Effects;
 pub use film::{PixelSums, Tile, TileSums};
 pub use integrator::{Estimator, PathSettings, Roulette};
+pub use kernel::KernelBits;
 pub use light::LightSampler;
 pub use render::{RenderError, RenderOptions, RenderSettings, render_tile};
 pub use rows::RowQueue;

@@ -8,9 +8,9 @@
 //! nothing can scatter or nothing emits) unless the caller forces a kernel.
 use crate::dispatch_kernel;
 use crate::tracer::camera::{CameraError, RasterCamera};
-use crate::tracer::effects::{EffectSet, KernelBits};
 use crate::tracer::film::{PixelSums, Tile, TileSums};
 use crate::tracer::integrator::{Integrator, PathSettings};
+use crate::tracer::kernel::{EffectSet, KernelBits};
 #[cfg(feature = "bench")]
 use crate::tracer::ray_log::RayLog;
 use crate::tracer::sampler::{PixelSeeds, Sampler, SamplerKind};

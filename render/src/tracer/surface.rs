@@ -7,8 +7,8 @@
 //! turned to the geometric normal's side and before two-sided flipping, and are then kept
 //! consistent with the geometric normal and the viewer ([`normal_map::keep_consistent`]).
 use crate::tracer::bsdf::Bsdf;
-use crate::tracer::effects::EffectSet;
 use crate::tracer::integrator::Integrator;
+use crate::tracer::kernel::EffectSet;
 use crate::tracer::material::{Material, NormalTexture};
 use crate::tracer::normal_map;
 use crate::tracer::ray::{ErrPoint, Ray};

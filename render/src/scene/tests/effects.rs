@@ -2,8 +2,9 @@
 //! render by the kernel with every effect compiled in, per pixel, within error bars.
 use super::super::*;
 use crate::tracer::RenderOptions;
-use crate::tracer::effects::{Effects, KernelBits};
+use crate::tracer::effects::Effects;
 use crate::tracer::integrator::tests::settings;
+use crate::tracer::kernel::KernelBits;
 use crate::tracer::{Estimator, PixelSums, Roulette, render_tile};
 use std::path::PathBuf;
 

@@ -1,11 +1,12 @@
 //! Each effect changes the image as physics says. Tolerances are 4σ of the pooled estimate
 //! (independent sampler, σ measured from the samples).
 use crate::tracer::RenderOptions;
-use crate::tracer::effects::{Effects, KernelBits};
+use crate::tracer::effects::Effects;
 use crate::tracer::integrator::tests::{
     assert_within_4_sigma, camera_at, pooled, quad, render, settings,
 };
 use crate::tracer::integrator::{Estimator, Roulette};
+use crate::tracer::kernel::KernelBits;
 use crate::tracer::material::{Glass, Material};
 use crate::tracer::scene::{Mesh, Scene};
 use glam::{Vec3, Vec4};

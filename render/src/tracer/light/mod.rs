@@ -25,7 +25,7 @@
 //! this one only costs variance when a triangle maps a region much brighter or darker than
 //! the whole image.
 use crate::tracer::accel::triangle_normal;
-use crate::tracer::effects::{AllEffects, EffectSet};
+use crate::tracer::kernel::{AllEffects, EffectSet};
 use crate::tracer::ray::ErrPoint;
 use crate::tracer::sampler::ONE_MINUS_EPSILON;
 use crate::tracer::sampling::{Frame, cosine_hemisphere, luminance, uniform_triangle};

@@ -88,7 +88,7 @@ fn spot_falloff_is_full_inside_and_zero_outside_the_cone() {
 fn point_light_follows_the_inverse_square_law() {
     let l = Light::Point { position: Vec3::new(0.0, 2.0, 0.0), intensity: Vec3::splat(8.0) };
     let s = l
-        .sample::<crate::tracer::effects::AllEffects>(Vec3::ZERO, Vec3::Y, Vec2::ZERO, &[])
+        .sample::<crate::tracer::kernel::AllEffects>(Vec3::ZERO, Vec3::Y, Vec2::ZERO, &[])
         .unwrap();
     assert_eq!(s.li, Vec3::splat(2.0));
     assert!(s.delta);

@@ -2,9 +2,10 @@
 //! as they should. Delta-lit and directly seen emitters give every sample the same value, so
 //! those tolerances are float rounding; the rest are 4σ of the difference of two estimates.
 use crate::tracer::RenderOptions;
-use crate::tracer::effects::{Effects, KernelBits};
+use crate::tracer::effects::Effects;
 use crate::tracer::integrator::tests::{camera_at, furnace, pooled, quad, render, settings};
 use crate::tracer::integrator::{Estimator, Roulette};
+use crate::tracer::kernel::KernelBits;
 use crate::tracer::light::Light;
 use crate::tracer::material::{Material, NormalTexture, TextureRef};
 use crate::tracer::render::render_tile;
