@@ -131,7 +131,7 @@ pub async fn run(
 }
 
 async fn checkpoint_forever(state: AppState) {
-    while let Some(pause) = state.checkpoint_interval() {
+    while let Some(pause) = state.durable.interval() {
         tokio::time::sleep(pause).await;
         let st = state.clone();
         if let Ok(Err(e)) = tokio::task::spawn_blocking(move || st.checkpoint()).await {

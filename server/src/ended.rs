@@ -135,20 +135,21 @@ impl Shared {
         // Neither a finalize (which writes images) nor a checkpoint (which writes the record
         // back) may run in between.
         let _no_finalize = self.finalize_lock.lock().expect("lock");
-        let _no_checkpoint = self.persist_lock.lock().expect("lock");
-        let images: Vec<PathBuf> = {
-            let sched = self.scheduler.lock().expect("lock");
-            let Some(job) = sched.job(job_id) else { return Ok(false) };
-            (0..job.frame_count()).map(|i| self.frame_file(job, i)).collect()
-        };
-        if let Some(store) = &self.store {
-            store.delete_job(job_id)?;
-        }
-        {
+        let images = self.durable.exclusive(|store| {
+            let images: Vec<PathBuf> = {
+                let sched = self.scheduler.lock().expect("lock");
+                let Some(job) = sched.job(job_id) else { return Ok(None) };
+                (0..job.frame_count()).map(|i| self.frame_file(job, i)).collect()
+            };
+            if let Some(store) = store {
+                store.delete_job(job_id)?;
+            }
             let mut sched = self.scheduler.lock().expect("lock");
             sched.cancel(job_id, self.now());
             sched.forget(job_id);
-        }
+            Ok(Some(images))
+        })?;
+        let Some(images) = images else { return Ok(false) };
         for path in images {
             match std::fs::remove_file(&path) {
                 Err(e) if e.kind() != std::io::ErrorKind::NotFound => {

@@ -1,9 +1,9 @@
 //! Shared coordinator state: the scheduler behind a mutex, the scene store, finished images.
 //! A job's status as clients see it is built in `crate::status`.
 pub use crate::output::JobImage;
+use crate::persist::Durability;
 use crate::scenes::SceneStore;
 use crate::scheduler::Scheduler;
-use crate::store::Store;
 use anyhow::Context;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -66,20 +66,15 @@ pub struct Counters {
     pub results_malformed: AtomicU64,
     pub leases_granted: AtomicU64,
     pub merge_nanos: AtomicU64,
-    pub checkpoint_failures: AtomicU64,
 }
 
 pub struct Shared {
     pub config: Config,
     pub scheduler: Mutex<Scheduler>,
     pub scenes: SceneStore,
-    /// Durable job state; None when `Config::checkpoint_ms` is None.
-    pub store: Option<Store>,
-    pub(crate) persist_lock: Mutex<()>,
+    /// Durable job state: the store and its checkpoints.
+    pub durable: Durability,
     pub(crate) finalize_lock: Mutex<()>,
-    pub(crate) checkpoint_cost: Mutex<std::time::Duration>,
-    /// Why the last checkpoint failed (cleared by the next that succeeds); shown by /healthz.
-    pub last_checkpoint_error: Mutex<Option<String>>,
     /// Ids of jobs whose status changed (for SSE).
     pub events: broadcast::Sender<String>,
     pub counters: Counters,
@@ -107,26 +102,19 @@ impl AppState {
         std::fs::create_dir_all(&jobs_dir)
             .with_context(|| format!("creating {}", jobs_dir.display()))?;
         let scenes = SceneStore::open(config.data_dir.join("scenes"), config.max_triangles)?;
-        let store = config.checkpoint_ms.map(|_| Store::open(&config.data_dir)).transpose()?;
-        let epoch = store.as_ref().map(Store::next_boot).transpose()?.unwrap_or(0);
+        let (durable, epoch) = Durability::open(&config.data_dir, config.checkpoint_ms)?;
         let mut scheduler =
             Scheduler::with_epoch(config.lease_timeout_ms, config.max_failures, epoch);
         scheduler.set_frame_affinity(config.frame_affinity);
         scheduler.set_mix_renderers(config.mix_renderers);
-        let finished = match &store {
-            Some(store) => crate::persist::restore(store, &mut scheduler, 0)?,
-            None => Vec::new(),
-        };
+        let finished = durable.restore(&mut scheduler)?;
         let (events, _) = broadcast::channel(1024);
         let state = AppState(Arc::new(Shared {
             config,
             scheduler: Mutex::new(scheduler),
             scenes,
-            store,
-            persist_lock: Mutex::new(()),
+            durable,
             finalize_lock: Mutex::new(()),
-            checkpoint_cost: Mutex::new(std::time::Duration::ZERO),
-            last_checkpoint_error: Mutex::new(None),
             events,
             counters: Counters::default(),
             work_available: tokio::sync::Notify::new(),
@@ -145,6 +133,12 @@ impl AppState {
 }
 
 impl Shared {
+    /// Writes every job changed since the last checkpoint; returns how many (see
+    /// [`Durability::checkpoint`]).
+    pub fn checkpoint(&self) -> anyhow::Result<usize> {
+        self.durable.checkpoint(&self.scheduler, self.now())
+    }
+
     /// Milliseconds on the coordinator's monotonic clock.
     pub fn now(&self) -> u64 {
         self.start.elapsed().as_millis() as u64

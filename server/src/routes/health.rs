@@ -11,7 +11,7 @@ use tessera_proto::JobState;
 /// job state cannot be written (the coordinator still serves; jobs stay in memory meanwhile).
 #[utoipa::path(get, path = "/healthz", tag = "health", responses((status = 200, description = "alive")))]
 pub async fn healthz(State(st): State<AppState>) -> String {
-    match st.last_checkpoint_error.lock().expect("lock").as_deref() {
+    match st.durable.last_error() {
         Some(e) => format!("ok; checkpoints failing: {e}"),
         None => "ok".into(),
     }
@@ -47,7 +47,7 @@ pub async fn metrics(State(st): State<AppState>) -> impl IntoResponse {
         (
             "tessera_checkpoint_failures_total",
             "Checkpoints of job state that failed",
-            c.checkpoint_failures.load(Ordering::Relaxed),
+            st.durable.failures.load(Ordering::Relaxed),
         ),
     ];
     for (name, help, v) in counters {
