@@ -87,6 +87,14 @@ pub struct TileSums {
     pub rays: u64,
 }
 
+/// Sums of one tile handed to another tile's merge.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("tile mismatch: {ours:?} vs {theirs:?}")]
+pub struct TileMismatch {
+    pub ours: Tile,
+    pub theirs: Tile,
+}
+
 impl TileSums {
     pub fn new(tile: Tile) -> TileSums {
         TileSums {
@@ -99,9 +107,9 @@ impl TileSums {
     }
 
     /// Adds another range's sums for the same tile.
-    pub fn merge(&mut self, other: &TileSums) -> Result<(), String> {
+    pub fn merge(&mut self, other: &TileSums) -> Result<(), TileMismatch> {
         if other.tile != self.tile {
-            return Err(format!("tile mismatch: {:?} vs {:?}", self.tile, other.tile));
+            return Err(TileMismatch { ours: self.tile, theirs: other.tile });
         }
         for (a, b) in self.pixels.iter_mut().zip(&other.pixels) {
             a.merge(b);

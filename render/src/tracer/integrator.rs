@@ -56,12 +56,18 @@ impl Estimator {
     }
 }
 
+/// Error from parsing an unknown estimator name; lists the valid names.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown estimator {0:?} (expected one of naive, bsdf, light, mis)")]
+pub struct UnknownEstimator(pub String);
+
 impl FromStr for Estimator {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Estimator, String> {
-        Estimator::ALL.into_iter().find(|e| e.name() == s).ok_or_else(|| {
-            format!("unknown estimator {s:?} (expected one of naive, bsdf, light, mis)")
-        })
+    type Err = UnknownEstimator;
+    fn from_str(s: &str) -> Result<Estimator, UnknownEstimator> {
+        Estimator::ALL
+            .into_iter()
+            .find(|e| e.name() == s)
+            .ok_or_else(|| UnknownEstimator(s.to_owned()))
     }
 }
 

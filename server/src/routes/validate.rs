@@ -4,8 +4,9 @@ use crate::scenes::SceneMeta;
 use crate::scheduler::JobConfig;
 use tessera_proto::job::DEFAULT_FPS;
 use tessera_proto::{FrameRange, JobRequest, RenderParams};
-use tessera_render::tracer::integrator::DEFAULT_ROULETTE_DEPTH;
-use tessera_render::tracer::sampler::SamplerKind;
+use tessera_render::tracer::integrator::{DEFAULT_ROULETTE_DEPTH, UnknownEstimator};
+use tessera_render::tracer::light::UnknownLightSampler;
+use tessera_render::tracer::sampler::{SamplerKind, UnknownSamplerKind};
 use tessera_render::tracer::{Estimator, LightSampler};
 
 pub const MAX_SIDE: u32 = 16384;
@@ -78,12 +79,13 @@ pub fn job_config(
         .as_deref()
         .unwrap_or("mis")
         .parse()
-        .map_err(|e: String| AppError::field("estimator", e))?;
-    let sampler: SamplerKind = req.sampler.as_deref().unwrap_or("sobol").parse().map_err(
-        |e: tessera_render::tracer::sampler::UnknownSamplerKind| {
-            AppError::field("sampler", e.to_string())
-        },
-    )?;
+        .map_err(|e: UnknownEstimator| AppError::field("estimator", e.to_string()))?;
+    let sampler: SamplerKind = req
+        .sampler
+        .as_deref()
+        .unwrap_or("sobol")
+        .parse()
+        .map_err(|e: UnknownSamplerKind| AppError::field("sampler", e.to_string()))?;
     let tile_size = in_range("tile_size", req.tile_size.unwrap_or(64), 8, 1024)?;
     let tiles = width.div_ceil(tile_size) as u64 * height.div_ceil(tile_size) as u64;
     let (frames, fps) =
@@ -98,7 +100,7 @@ pub fn job_config(
         .as_deref()
         .unwrap_or(LightSampler::Auto.name())
         .parse()
-        .map_err(|e: String| AppError::field("light_sampler", e))?;
+        .map_err(|e: UnknownLightSampler| AppError::field("light_sampler", e.to_string()))?;
     let background = req.background.unwrap_or([0.0; 3]);
     if background.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
         return Err(AppError::field("background", "background must be three finite numbers ≥ 0"));

@@ -2,8 +2,9 @@
 use glam::Vec3;
 use std::str::FromStr;
 use tessera_proto::{PartialSums, RenderParams, TileRect, WirePixel};
-use tessera_render::tracer::integrator::PathSettings;
-use tessera_render::tracer::sampler::SamplerKind;
+use tessera_render::tracer::integrator::{PathSettings, UnknownEstimator};
+use tessera_render::tracer::light::UnknownLightSampler;
+use tessera_render::tracer::sampler::{SamplerKind, UnknownSamplerKind};
 use tessera_render::tracer::{Estimator, LightSampler, RenderSettings, Roulette, Tile, TileSums};
 
 /// A unit's sums in wire form, bit for bit (`max_weight` widened to f64 exactly).
@@ -28,18 +29,33 @@ pub fn to_wire(sums: &TileSums, samples: [u32; 2]) -> PartialSums {
     }
 }
 
+/// Render parameters a worker cannot render with.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum BadParams {
+    #[error(transparent)]
+    Estimator(#[from] UnknownEstimator),
+    #[error(transparent)]
+    Sampler(#[from] UnknownSamplerKind),
+    #[error(transparent)]
+    LightSampler(#[from] UnknownLightSampler),
+    #[error("image size {width}×{height} is empty")]
+    EmptyImage { width: u32, height: u32 },
+    #[error("background {0:?} must be finite and ≥ 0")]
+    Background([f32; 3]),
+}
+
 /// The tracer's settings for a job's render parameters.
-pub fn render_settings(params: &RenderParams) -> Result<RenderSettings, String> {
+pub fn render_settings(params: &RenderParams) -> Result<RenderSettings, BadParams> {
     let estimator = Estimator::from_str(&params.estimator)?;
-    let sampler = SamplerKind::from_str(&params.sampler).map_err(|e| e.to_string())?;
-    // None: a coordinator that predates the setting, whose jobs all chose automatically.
+    let sampler = SamplerKind::from_str(&params.sampler)?;
+    // None: parameters from a coordinator whose jobs all chose automatically.
     let light_sampler =
         params.light_sampler.as_deref().map_or(Ok(LightSampler::Auto), LightSampler::from_str)?;
     if params.width == 0 || params.height == 0 {
-        return Err(format!("image size {}×{} is empty", params.width, params.height));
+        return Err(BadParams::EmptyImage { width: params.width, height: params.height });
     }
     if !params.background.iter().all(|c| c.is_finite() && *c >= 0.0) {
-        return Err(format!("background {:?} must be finite and ≥ 0", params.background));
+        return Err(BadParams::Background(params.background));
     }
     Ok(RenderSettings {
         width: params.width,
@@ -130,7 +146,7 @@ mod tests {
             (RenderParams { width: 0, ..params() }, "empty"),
             (RenderParams { background: [f32::NAN, 0.0, 0.0], ..params() }, "background"),
         ] {
-            let e = render_settings(&p).unwrap_err();
+            let e = render_settings(&p).unwrap_err().to_string();
             assert!(e.contains(why), "{e:?} should mention {why}");
         }
     }

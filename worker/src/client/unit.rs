@@ -132,7 +132,7 @@ impl Worker {
 /// The unit's render settings; frame n of an animation is rendered with its own seed
 /// ([`frame_seed`](tessera_render::tracer::sampler::frame_seed), the job's seed for frame 0).
 fn check_unit(lease: &Lease) -> Result<tessera_render::tracer::RenderSettings, String> {
-    let mut settings = render_settings(&lease.params)?;
+    let mut settings = render_settings(&lease.params).map_err(|e| e.to_string())?;
     settings.seed = tessera_render::tracer::sampler::frame_seed(settings.seed, lease.frame);
     let [s0, s1] = lease.samples;
     if s1 <= s0 {

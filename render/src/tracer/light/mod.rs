@@ -35,7 +35,7 @@ use glam::{DVec3, Vec2, Vec3};
 use std::f32::consts::PI;
 
 mod tree;
-pub use tree::{LightSampler, LightTree, Spread};
+pub use tree::{LightSampler, LightTree, Spread, UnknownLightSampler};
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Light {

@@ -74,17 +74,9 @@ impl fmt::Display for SamplerKind {
 }
 
 /// Error from parsing an unknown sampler name; lists the valid names.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown sampler `{0}` (valid: {names})", names = SamplerKind::ALL.map(|k| k.name()).join(", "))]
 pub struct UnknownSamplerKind(pub String);
-
-impl fmt::Display for UnknownSamplerKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let names: Vec<_> = SamplerKind::ALL.iter().map(|k| k.name()).collect();
-        write!(f, "unknown sampler `{}` (valid: {})", self.0, names.join(", "))
-    }
-}
-
-impl std::error::Error for UnknownSamplerKind {}
 
 impl FromStr for SamplerKind {
     type Err = UnknownSamplerKind;

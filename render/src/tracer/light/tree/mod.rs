@@ -130,12 +130,18 @@ impl LightSampler {
     }
 }
 
+/// Error from parsing an unknown light sampler name; lists the valid names.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown light sampler {0:?} (expected one of auto, power, tree)")]
+pub struct UnknownLightSampler(pub String);
+
 impl FromStr for LightSampler {
-    type Err = String;
-    fn from_str(s: &str) -> Result<LightSampler, String> {
-        LightSampler::ALL.into_iter().find(|l| l.name() == s).ok_or_else(|| {
-            format!("unknown light sampler {s:?} (expected one of auto, power, tree)")
-        })
+    type Err = UnknownLightSampler;
+    fn from_str(s: &str) -> Result<LightSampler, UnknownLightSampler> {
+        LightSampler::ALL
+            .into_iter()
+            .find(|l| l.name() == s)
+            .ok_or_else(|| UnknownLightSampler(s.to_owned()))
     }
 }
 

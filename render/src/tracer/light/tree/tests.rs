@@ -59,7 +59,7 @@ fn the_setting_overrides_what_suits_the_scene_and_the_tree_holds_the_triangles_o
     for l in LightSampler::ALL {
         assert_eq!(l.name().parse::<LightSampler>(), Ok(l));
     }
-    assert!("bvh".parse::<LightSampler>().unwrap_err().contains("auto, power, tree"));
+    assert!("bvh".parse::<LightSampler>().unwrap_err().to_string().contains("auto, power, tree"));
     let mut lights = scattered(3, 1);
     lights.push(Light::Point { position: Vec3::ZERO, intensity: Vec3::ONE });
     let tree = LightTree::over(&lights).expect("a tree");
