@@ -2,7 +2,7 @@
 """Where the light tree starts to pay: two light choices on two families of scenes.
 
 Whether a scene chooses a light sample's triangle through the light tree instead of by power
-depends on its lights (`LightTree::MIN_LIGHTS` and `LightTree::suits`, worker/src/tracer/). This
+depends on its lights (`LightTree::MIN_LIGHTS` and `LightTree::suits`, render/src/tracer/light/tree/). This
 script measures both choices on scenes that differ in the count and the spread of their lights:
 
 - `lamps-N`: the bundled `many-lights` scene with a grid of G × G lamps instead of 16 × 16
@@ -26,7 +26,7 @@ gives an unbiased estimate of the image's relMSE, printed by `tessera render`), 
 every round (same seed). The fourth column is the tree's relMSE·s over power's: below 1 the tree
 reaches a given quality sooner. The last says what the default, `--light-sampler auto`, chooses
 for the scene (the `light_tree` effect; below 32 emissive triangles, `LightTree::suits` judges
-how the lights differ: worker/src/tracer/light_tree_auto.rs).
+how the lights differ: render/src/tracer/light/tree/auto.rs).
 """
 import argparse
 import math

@@ -1,6 +1,6 @@
 //! Kernel benchmarks (criterion): the pieces a path sample is made of, on the Cornell box.
 //!
-//! `cargo bench -p tessera-worker --bench kernels` (add `-- sampler` etc. to filter). Whole
+//! `cargo bench -p tessera-render --bench kernels` (add `-- sampler` etc. to filter). Whole
 //! renders and the comparison with Mitsuba 3 are `tessera-bench` subcommands; these isolate one
 //! kernel each, so a change to one shows up without the noise of the rest:
 //! - `sampler/*`: one 2D draw (Sobol, independent) at a fresh (pixel, sample) per iteration;

@@ -25,7 +25,7 @@ pub(super) fn tree_triangle(t: &[Vec3; 3], scale: f32) -> Triangle {
     }
 }
 
-/// The tree obvhs built: wide (its leaves packed, `accel_layout.rs`), or binary.
+/// The tree obvhs built: wide (its leaves packed, `layout.rs`), or binary.
 pub(super) enum Topology {
     Wide(CwBvh),
     Binary(Bvh2),

@@ -1,9 +1,9 @@
 //! Ray–triangle acceleration: an obvhs BVH with a watertight triangle test.
 //!
-//! obvhs supplies the tree and its SIMD node test; the walk (`accel_wide.rs`) and the triangle
+//! obvhs supplies the tree and its SIMD node test; the walk (`wide.rs`) and the triangle
 //! test are ours: watertight (Woop, Benthin and Wald 2013, as in pbrt-v4), because obvhs's
 //! Möller–Trumbore test leaks rays through shared edges, and run on four triangles at once
-//! (`accel_packet.rs`).
+//! (`packet.rs`).
 //! Two obvhs pitfalls are handled here, not by callers:
 //! - its `Ray::new` clamps tiny direction components, so near-axis rays could miss thin far
 //!   geometry: we write the exact reciprocal (±f32::MAX for zero) into `inv_direction`;
@@ -33,7 +33,7 @@ pub enum BvhKind {
 
 enum Tree {
     /// The nodes of obvhs's wide tree as our walk reads them (tight f32 child boxes,
-    /// `accel_node.rs`); its primitive slots (`accel_layout.rs`) live on as `prim_ids`.
+    /// `node/mod.rs`); its primitive slots (`layout.rs`) live on as `prim_ids`.
     Wide(Vec<node::Node>),
     Binary(Bvh2),
     Empty,
@@ -49,7 +49,7 @@ pub struct Accel {
     /// The tree's topology, kept by [`Accel::build_refittable`] so [`Accel::refit`] can move its
     /// boxes instead of building again; shared by every frame refitted from it.
     refit: Option<Arc<refit::RefitBase>>,
-    /// Whether queries run the walk compiled for AVX2 (`accel_avx2.rs`): the same hits.
+    /// Whether queries run the walk compiled for AVX2 (`accel/avx2.rs`): the same hits.
     avx2: bool,
 }
 
@@ -135,7 +135,7 @@ impl Accel {
         };
         let topology = match kind {
             BvhKind::Wide => {
-                // A wide tree is walked with a fixed 32-entry stack (ours in accel_wide.rs, like
+                // A wide tree is walked with a fixed 32-entry stack (ours in wide.rs, like
                 // obvhs's); a deeper tree would overflow it and silently drop nodes and hits. Pathological geometry (found by fuzzing) builds deeper
                 // trees: those get the binary tree, whose traversal stack grows.
                 let build = || {

@@ -387,7 +387,7 @@ fn axis_rays_match_brute_force(tris: &[[Vec3; 3]], kind: BvhKind) {
     assert!(found > 500, "{kind:?}: only {found} rays hit");
 }
 
-/// The copy of the queries compiled for AVX2 (`accel_avx2.rs`) finds bit for bit the hits of
+/// The copy of the queries compiled for AVX2 (`accel/avx2.rs`) finds bit for bit the hits of
 /// the baseline copy, on random rays and on axis rays with zero components of either sign.
 #[test]
 fn the_avx2_queries_find_the_baseline_hits() {

@@ -1,7 +1,7 @@
 //! The walk of obvhs's wide BVH, as its `ray_traverse` and `ray_traverse_miss` do (the steps of
 //! its `traverse!` macro, its node test), with two differences:
 //! - a node's candidate triangles go to the caller together, to be tested four at a time
-//!   (`accel_packet.rs`), not one by one;
+//!   (`packet.rs`), not one by one;
 //! - the traversal stack is not zeroed for every ray. obvhs builds a fresh 32-entry stack of
 //!   `UVec2` per query, a 256-byte `memset` that cost ≈ 1.8 % of a Cornell box render (perf,
 //!   2026-12-01).
@@ -97,7 +97,7 @@ pub(super) fn octant_inv4(dir: Vec3A) -> u32 {
 /// tested four to a packet. `leaf` may shorten `ray.tmax` (closest hit: later boxes are culled
 /// against it) and returns true to stop the walk (any hit). Otherwise the steps of `traverse!`.
 /// Each step is reported to `tally` (`()` for the tracer's queries: no code). `AVX`: the node
-/// test for code compiled with AVX (`accel_avx2.rs`).
+/// test for code compiled with AVX (`accel/avx2.rs`).
 #[inline(always)]
 pub(super) fn walk<const AVX: bool, T: Tally>(
     nodes: &[Node],

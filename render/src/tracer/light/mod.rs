@@ -14,7 +14,7 @@
 //! A [`LightSet`] picks lights in proportion to their power, so dim lights cost little; a scene
 //! with many area lights ([`LightTree::MIN_LIGHTS`]), or a few that differ in what they give
 //! its surfaces ([`LightTree::suits`]), picks among those through a [`LightTree`] instead, by
-//! what each can give the point being lit (`light_tree.rs`, `light_tree_auto.rs`).
+//! what each can give the point being lit (`tree/mod.rs`, `tree/auto.rs`).
 //!
 //! A triangle whose material has an `emissiveTexture` emits radiance × texture(uv): light
 //! sampling picks a point uniformly on the triangle and evaluates the texture exactly there,

@@ -1,5 +1,5 @@
 //! Cases 5 and 6: tiny, distant and grazing lights. (Case 10, MIS bounds, needs the
-//! integrator's internals: `integrator_mis_tests.rs`.)
+//! integrator's internals: `integrator/tests/mis.rs`.)
 use crate::tracer::RenderOptions;
 use crate::tracer::chi2::Rng;
 use crate::tracer::integrator::tests::{

@@ -217,7 +217,7 @@ impl Slabs {
 pub(super) fn hits<const AVX: bool>(node: &Node, slabs: &Slabs, ray: &Ray, oct_inv4: u32) -> u32 {
     #[cfg(target_arch = "x86_64")]
     if AVX {
-        // SAFETY: AVX is true only in the copy of the walk compiled for AVX2 (`accel_avx2.rs`).
+        // SAFETY: AVX is true only in the copy of the walk compiled for AVX2 (`accel/avx2.rs`).
         let (children, leaves) = unsafe { wide8::entered(node, slabs, ray.tmax) };
         return hit_mask(node, children, leaves, oct_inv4);
     }

@@ -1,10 +1,10 @@
-//! The node test of `accel_node.rs` on all eight children at once, in 256-bit AVX registers.
+//! The node test of `super` (node/mod.rs) on all eight children at once, in 256-bit AVX registers.
 //! Each lane does what a lane of the 128-bit test does, operand for operand (the same `min` and
 //! `max` operand order, which decides what a NaN gives), so both tests cull the same boxes.
 //!
 //! Why `#[inline(always)]` and not `#[target_feature(enable = "avx")]`: a function with a target
 //! feature was not inlined into the AVX2 walk (a call per node, measured), while this body,
-//! inlined through the generic walk into `accel_avx2.rs`'s `#[target_feature]` functions, is
+//! inlined through the generic walk into `accel/avx2.rs`'s `#[target_feature]` functions, is
 //! compiled there with their features, and its intrinsics inlined with it.
 use super::{FAR_SCALE, NEAREST, Node, Slabs};
 use std::arch::x86_64::*;

@@ -1,7 +1,7 @@
 //! # LightTree — choosing among many area lights by what each can give a point
 //!
 //! A scene's emissive triangles in a tree of bounds. A light sample chooses through it where
-//! the tree suits the scene ([`LightTree::suits`], `light_tree_auto.rs`: from
+//! the tree suits the scene ([`LightTree::suits`], `tree/auto.rs`: from
 //! [`LightTree::MIN_LIGHTS`] of them on, or fewer that differ in what they give its surfaces;
 //! job setting `light_sampler`: `auto`, the default; `tree` always, `power` never:
 //! [`LightSampler`]). Elsewhere [`LightSet`](super::LightSet) picks lights in proportion to their
