@@ -14,10 +14,10 @@ impl Shared {
     pub(crate) fn remove_stale_frames(&self) -> Vec<(String, usize)> {
         let sched = self.scheduler.lock().expect("lock");
         let mut complete = Vec::new();
-        for job in sched.jobs_newest_first().filter(|j| !j.state.is_final()) {
+        for job in sched.jobs_newest_first().filter(|j| !j.state().is_final()) {
             for i in (0..job.frame_count()).filter(|&i| !job.frame_released(i)) {
                 if job.frame_complete(i) {
-                    complete.push((job.cfg.id.clone(), i));
+                    complete.push((job.cfg().id.clone(), i));
                 } else {
                     let _ = std::fs::remove_file(self.frame_file(job, i));
                 }
@@ -38,7 +38,7 @@ impl Shared {
             let mut sched = self.scheduler.lock().expect("lock");
             sched.note_ended_at(job_id, unix_ms());
             let Some(job) = sched.job(job_id) else { return };
-            if !job.state.is_final() || job.sums_released() {
+            if !job.state().is_final() || job.sums_released() {
                 return;
             }
             // A frame released while the job ran has its file already (unless it was removed).
@@ -80,7 +80,7 @@ impl Shared {
         let (snapshot, path) = {
             let sched = self.scheduler.lock().expect("lock");
             let Some(job) = sched.job(job_id) else { return };
-            if job.state.is_final() || job.frame_released(index) || !job.frame_complete(index) {
+            if job.state().is_final() || job.frame_released(index) || !job.frame_complete(index) {
                 return; // an ended job's frames are `finalize`'s
             }
             (JobImage::of(job, index, self.now()), self.frame_file(job, index))

@@ -182,7 +182,7 @@ impl Shared {
 
     /// The file of frame index `index` of `job` (see [`Self::image_path`]).
     pub(crate) fn frame_file(&self, job: &crate::scheduler::JobRun, index: usize) -> PathBuf {
-        self.image_path(&job.cfg.id, job.is_animation().then(|| job.frame_number(index)))
+        self.image_path(&job.cfg().id, job.is_animation().then(|| job.frame_number(index)))
     }
 }
 

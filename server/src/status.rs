@@ -7,45 +7,45 @@ pub fn job_status(job: &JobRun, now: u64, workers: u32, max_failures: u32) -> Jo
     let elapsed_ms = job.elapsed_ms(now);
     let elapsed_s = elapsed_ms as f64 / 1000.0;
     let done = job.samples_done();
-    let target = job.cfg.spp as f64;
+    let target = job.cfg().spp as f64;
     let noise = job.reported_noise();
     let mut fraction = (done / target).min(1.0);
-    if let (Some(t), Some(n)) = (job.cfg.noise_target, noise) {
+    if let (Some(t), Some(n)) = (job.cfg().noise_target, noise) {
         fraction = fraction.max((t / n).min(1.0));
     }
-    if let Some(limit) = job.cfg.time_limit_ms {
+    if let Some(limit) = job.cfg().time_limit_ms {
         fraction = fraction.max((elapsed_ms as f64 / limit as f64).min(1.0));
     }
-    if job.state == JobState::Done {
+    if job.state() == JobState::Done {
         fraction = 1.0;
     }
     let rate = if elapsed_s > 0.0 { done / elapsed_s } else { 0.0 };
     let eta_s = eta(job, done, rate, noise, elapsed_s);
     Job {
-        id: job.cfg.id.clone(),
-        state: job.state,
-        scene: job.cfg.scene_id.clone(),
-        request: job.cfg.request.clone(),
+        id: job.cfg().id.clone(),
+        state: job.state(),
+        scene: job.cfg().scene_id.clone(),
+        request: job.cfg().request.clone(),
         progress: Progress { samples_done: done, samples_target: target, fraction },
         noise,
         elapsed_s,
         eta_s,
         samples_per_s: rate * job.pixel_count() as f64,
         workers,
-        effects: job.cfg.effects.clone(),
+        effects: job.cfg().effects.clone(),
         history: job
-            .history
+            .history()
             .rows
             .iter()
             .map(|r| [r[0], r[1], if r[2].is_finite() { r[2] } else { 0.0 }])
             .collect(),
         dropped_samples: job.dropped(),
         max_sample_weight: job.max_weight(),
-        message: job.message.clone(),
-        created_unix_ms: job.cfg.created_unix_ms,
-        ended_unix_ms: job.ended_unix_ms,
+        message: job.message().map(str::to_owned),
+        created_unix_ms: job.cfg().created_unix_ms,
+        ended_unix_ms: job.ended_unix_ms(),
         worker_failures: job
-            .failures
+            .failures()
             .iter()
             .map(|(id, f)| WorkerFailures {
                 worker_id: id.clone(),
@@ -54,9 +54,9 @@ pub fn job_status(job: &JobRun, now: u64, workers: u32, max_failures: u32) -> Jo
                 blocked: f.count >= max_failures,
             })
             .collect(),
-        renderers: job.renderers.clone(),
+        renderers: job.renderers().to_vec(),
         contributions: job
-            .contributions
+            .contributions()
             .iter()
             .map(|(id, (name, n))| WorkerContribution {
                 worker_id: id.clone(),
@@ -69,7 +69,7 @@ pub fn job_status(job: &JobRun, now: u64, workers: u32, max_failures: u32) -> Jo
 }
 
 fn frame_status(job: &JobRun, index: usize) -> FrameStatus {
-    let prep = job.prepare[index];
+    let prep = job.frame_prepare(index);
     FrameStatus {
         frame: job.frame_number(index),
         time_s: job.frame_time_s(index),
@@ -86,21 +86,21 @@ fn frame_status(job: &JobRun, index: usize) -> FrameStatus {
 /// Seconds left: to the spp target at the current rate, to the noise target assuming noise ∝ 1/spp,
 /// and to the time limit — whichever comes first.
 fn eta(job: &JobRun, done: f64, rate: f64, noise: Option<f64>, elapsed_s: f64) -> Option<f64> {
-    if job.state.is_final() {
+    if job.state().is_final() {
         return Some(0.0);
     }
-    if job.state == JobState::Paused {
+    if job.state() == JobState::Paused {
         return None;
     }
     if rate <= 0.0 {
         return None;
     }
-    let mut samples_needed = job.cfg.spp as f64;
-    if let (Some(t), Some(n)) = (job.cfg.noise_target, noise) {
+    let mut samples_needed = job.cfg().spp as f64;
+    if let (Some(t), Some(n)) = (job.cfg().noise_target, noise) {
         samples_needed = samples_needed.min(done * n / t);
     }
     let mut eta = ((samples_needed - done) / rate).max(0.0);
-    if let Some(limit) = job.cfg.time_limit_ms {
+    if let Some(limit) = job.cfg().time_limit_ms {
         eta = eta.min((limit as f64 / 1000.0 - elapsed_s).max(0.0));
     }
     Some(eta)

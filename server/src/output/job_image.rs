@@ -34,9 +34,9 @@ impl JobImage {
 /// One frame's layers, straight from its tiles' sums (no copy of the sums: a 4-megapixel frame's
 /// are 256 MiB).
 fn frame_layers(job: &JobRun, index: usize) -> ImageLayers {
-    let width = job.cfg.params.width as usize;
-    let mut img = ImageLayers::zeroed(width, job.cfg.params.height as usize);
-    for t in job.tiles[job.frame_tiles(index)].iter().filter(|t| !t.merged.is_empty()) {
+    let width = job.cfg().params.width as usize;
+    let mut img = ImageLayers::zeroed(width, job.cfg().params.height as usize);
+    for t in job.tiles()[job.frame_tiles(index)].iter().filter(|t| !t.merged.is_empty()) {
         let (x0, y0, w) = (t.rect.x0 as usize, t.rect.y0 as usize, t.rect.w as usize);
         for (k, p) in t.merged.iter().enumerate() {
             image::set_pixel(&mut img, (y0 + k / w) * width + x0 + k % w, p);
@@ -46,11 +46,11 @@ fn frame_layers(job: &JobRun, index: usize) -> ImageLayers {
 }
 
 fn exr_meta(job: &JobRun, index: usize, now: u64) -> Vec<(String, MetaValue)> {
-    let p = &job.cfg.params;
+    let p = &job.cfg().params;
     let mut meta = vec![
         ("software".to_string(), MetaValue::Text(format!("tessera {}", env!("CARGO_PKG_VERSION")))),
-        ("tessera.job".into(), MetaValue::Text(job.cfg.id.clone())),
-        ("tessera.scene".into(), MetaValue::Text(job.cfg.scene_id.clone())),
+        ("tessera.job".into(), MetaValue::Text(job.cfg().id.clone())),
+        ("tessera.scene".into(), MetaValue::Text(job.cfg().scene_id.clone())),
         ("tessera.spp".into(), MetaValue::Double(job.frame_samples_done(index))),
         ("tessera.seed".into(), MetaValue::Text(p.seed.to_string())),
         ("tessera.estimator".into(), MetaValue::Text(p.estimator.clone())),
@@ -61,14 +61,14 @@ fn exr_meta(job: &JobRun, index: usize, now: u64) -> Vec<(String, MetaValue)> {
                 p.light_sampler.clone().unwrap_or_else(|| LightSampler::Auto.name().into()),
             ),
         ),
-        ("tessera.effects".into(), MetaValue::Text(job.cfg.effects.join(","))),
+        ("tessera.effects".into(), MetaValue::Text(job.cfg().effects.join(","))),
         // The frame's own: an animation's frame may be written while later frames still render.
         ("tessera.dropped_samples".into(), MetaValue::Text(job.frame_dropped(index).to_string())),
         ("tessera.max_sample_weight".into(), MetaValue::Double(job.frame_max_weight(index))),
         ("tessera.render_time_s".into(), MetaValue::Double(job.elapsed_ms(now) as f64 / 1000.0)),
         ("tessera.noise".into(), MetaValue::Double(job.frame_noise(index).unwrap_or(0.0))),
         // One renderer id, or several separated by "; " (see scheduler/renderers.rs).
-        ("tessera.renderers".into(), MetaValue::Text(job.renderers.join("; "))),
+        ("tessera.renderers".into(), MetaValue::Text(job.renderers().join("; "))),
     ];
     if job.is_animation() {
         meta.push(("tessera.frame".into(), MetaValue::Text(job.frame_number(index).to_string())));

@@ -48,7 +48,7 @@ pub async fn events(
 
 /// Whether job `id` has ended (or is gone).
 fn ended(st: &AppState, id: &str) -> bool {
-    st.scheduler.lock().expect("lock").job(id).is_none_or(|j| j.state.is_final())
+    st.scheduler.lock().expect("lock").job(id).is_none_or(|j| j.state().is_final())
 }
 
 /// Returns when job `id` changes (or the channel lagged or closed, so a change may be missed).

@@ -61,7 +61,7 @@ pub async fn metrics(State(st): State<AppState>) -> impl IntoResponse {
     let sched = st.scheduler.lock().expect("lock");
     let _ = writeln!(out, "# HELP tessera_jobs Jobs by state\n# TYPE tessera_jobs gauge");
     for state in JobState::ALL {
-        let n = sched.jobs_newest_first().filter(|j| j.state == state).count();
+        let n = sched.jobs_newest_first().filter(|j| j.state() == state).count();
         let _ = writeln!(out, "tessera_jobs{{state=\"{}\"}} {n}", state.name());
     }
     let _ = writeln!(

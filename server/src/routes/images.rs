@@ -109,7 +109,7 @@ fn frame_index(st: &AppState, id: &str, n: u32) -> Result<usize, AppError> {
     (0..job.frame_count()).find(|&i| job.frame_number(i) == n).ok_or_else(|| {
         AppError::not_found(format!(
             "job {id:?} has no frame {n} (its frames are {:?})",
-            job.cfg.frames
+            job.cfg().frames
         ))
     })
 }
@@ -122,7 +122,7 @@ async fn frame_exr_bytes(st: &AppState, id: &str, index: usize) -> Result<Vec<u8
 /// True when the job has ended; its frame files are then written (now, if it ended a moment ago
 /// and they are not yet).
 async fn finalize_if_ended(st: &AppState, id: &str) -> Result<bool, AppError> {
-    let ended = st.scheduler.lock().expect("lock").job(id).is_some_and(|j| j.state.is_final());
+    let ended = st.scheduler.lock().expect("lock").job(id).is_some_and(|j| j.state().is_final());
     if ended {
         let (st2, id2) = (st.clone(), id.to_string());
         tokio::task::spawn_blocking(move || st2.finalize(&id2))

@@ -61,13 +61,13 @@ pub async fn list(State(st): State<AppState>, Query(q): Query<ListQuery>) -> axu
     let s = st.scheduler.lock().expect("lock");
     let now = st.now();
     let mut iter =
-        s.jobs_newest_first().skip_while(|j| q.before.as_ref().is_some_and(|b| &j.cfg.id != b));
+        s.jobs_newest_first().skip_while(|j| q.before.as_ref().is_some_and(|b| &j.cfg().id != b));
     if q.before.is_some() {
         iter.next();
     }
     let page: Vec<Job> = iter
         .take(limit + 1)
-        .map(|j| job_status(j, now, s.workers_on(&j.cfg.id), s.max_failures()))
+        .map(|j| job_status(j, now, s.workers_on(&j.cfg().id), s.max_failures()))
         .collect();
     let next = (page.len() > limit).then(|| page[limit - 1].id.clone());
     axum::Json(JobList { jobs: page.into_iter().take(limit).collect(), next })

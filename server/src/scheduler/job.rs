@@ -62,34 +62,34 @@ pub struct Contributor {
 }
 
 pub struct JobRun {
-    pub cfg: JobConfig,
-    pub seq: u64,
-    pub state: JobState,
+    pub(super) cfg: JobConfig,
+    pub(super) seq: u64,
+    pub(super) state: JobState,
     /// Every frame's tiles, frame-major: tile `i` is tile `i % tiles_per_frame` of frame index
     /// `i / tiles_per_frame`, so a unit (job, frame, tile, batch) is (job, i, batch).
-    pub tiles: Vec<TileRun>,
-    pub tiles_per_frame: usize,
+    pub(super) tiles: Vec<TileRun>,
+    pub(super) tiles_per_frame: usize,
     /// Scene preparation reported by workers, per frame index (kept in memory only).
-    pub prepare: Vec<FramePrepare>,
+    pub(super) prepare: Vec<FramePrepare>,
     /// Render time spent before this coordinator started (restored from a checkpoint).
-    pub elapsed_before_ms: u64,
-    pub started_ms: Option<u64>,
-    pub finished_ms: Option<u64>,
-    pub history: History,
-    pub message: Option<String>,
+    pub(super) elapsed_before_ms: u64,
+    pub(super) started_ms: Option<u64>,
+    pub(super) finished_ms: Option<u64>,
+    pub(super) history: History,
+    pub(super) message: Option<String>,
     /// Failures by worker id; a worker with too many is kept off the job.
-    pub failures: BTreeMap<String, Failures>,
+    pub(super) failures: BTreeMap<String, Failures>,
     /// Bumped on every change a checkpoint must record; `persisted_revision` is the one on disk.
     pub(super) revision: u64,
     pub(super) persisted_revision: u64,
     /// Pixel-samples merged per worker id (with its name).
-    pub contributions: BTreeMap<String, (String, u64)>,
+    pub(super) contributions: BTreeMap<String, (String, u64)>,
     /// Renderer ids of the workers whose samples are merged, in order of their first merge:
     /// one, unless the job outlived every live worker of its renderer (`renderers.rs`).
-    pub renderers: Vec<String>,
+    pub(super) renderers: Vec<String>,
     /// Wall-clock time (ms since the Unix epoch) the coordinator saw the job ended, for
     /// `--delete-ended-after`; stamped by `Shared::finalize`.
-    pub ended_unix_ms: Option<u64>,
+    pub(super) ended_unix_ms: Option<u64>,
     /// Who rendered each buffered (tile, batch), credited when it merges in order.
     pending_by: HashMap<(usize, u32), Contributor>,
     /// Frames before this index are complete (every tile has all it will get): the lease path
@@ -131,6 +131,56 @@ impl JobRun {
             pending_by: HashMap::new(),
             open_frame: 0,
         }
+    }
+
+    /// The job's configuration, as accepted.
+    pub fn cfg(&self) -> &JobConfig {
+        &self.cfg
+    }
+
+    /// The job's state (queued, running, paused, or how it ended).
+    pub fn state(&self) -> JobState {
+        self.state
+    }
+
+    /// Every frame's tiles, frame-major (see `frame_tiles`).
+    pub fn tiles(&self) -> &[TileRun] {
+        &self.tiles
+    }
+
+    /// The job's noise against time: rows of (render seconds, mean spp, relMSE).
+    pub fn history(&self) -> &History {
+        &self.history
+    }
+
+    /// Why the job ended as it did, when it says (failed, canceled).
+    pub fn message(&self) -> Option<&str> {
+        self.message.as_deref()
+    }
+
+    /// Wall-clock time (ms since the Unix epoch) the coordinator saw the job ended.
+    pub fn ended_unix_ms(&self) -> Option<u64> {
+        self.ended_unix_ms
+    }
+
+    /// Failed units by worker id.
+    pub fn failures(&self) -> &BTreeMap<String, Failures> {
+        &self.failures
+    }
+
+    /// Pixel-samples merged per worker id, with the worker's name.
+    pub fn contributions(&self) -> &BTreeMap<String, (String, u64)> {
+        &self.contributions
+    }
+
+    /// Renderer ids of the workers whose samples are merged, in order of their first merge.
+    pub fn renderers(&self) -> &[String] {
+        &self.renderers
+    }
+
+    /// Scene preparation workers reported for frame index `index`.
+    pub fn frame_prepare(&self, index: usize) -> FramePrepare {
+        self.prepare[index]
     }
 
     pub fn samples_of(&self, batch: u32) -> [u32; 2] {

@@ -32,6 +32,7 @@ mod tile;
 
 pub use durable::{JobCheckpoint, JobRecord, ReleasedTile, RestoredTile, TileCheckpoint, TileMark};
 pub use frames::{FramePrepare, PrepareKind};
+pub use history::History;
 pub use idle::IdleReason;
 pub use job::{Contributor, Failures, JobConfig, JobRun, MIN_SPP_FOR_NOISE_STOP};
 use leases::LeaseRec;

@@ -36,7 +36,7 @@ async fn observed(api: &Api, job: &str) -> (Value, Vec<u8>, Vec<u8>) {
 
 fn holds_sums(api: &Api, job: &str) -> usize {
     let s = api.state.scheduler.lock().unwrap();
-    s.job(job).unwrap().tiles.iter().map(|t| t.merged.len()).sum()
+    s.job(job).unwrap().tiles().iter().map(|t| t.merged.len()).sum()
 }
 
 #[tokio::test]

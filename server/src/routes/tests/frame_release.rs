@@ -74,7 +74,7 @@ async fn a_complete_frame_is_written_and_dropped_while_the_job_goes_on_and_after
         .unwrap()
         .job(&id)
         .unwrap()
-        .tiles
+        .tiles()
         .iter()
         .map(|t| t.merged.len())
         .collect();
