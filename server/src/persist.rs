@@ -26,7 +26,7 @@ pub struct Durability {
     /// Why the last checkpoint failed (cleared by the next that succeeds); shown by /healthz.
     last_error: Mutex<Option<String>>,
     /// Checkpoints that failed since start (`/metrics`).
-    pub failures: AtomicU64,
+    failures: AtomicU64,
 }
 
 impl Durability {
@@ -94,6 +94,11 @@ impl Durability {
     pub fn interval(&self) -> Option<Duration> {
         let base = Duration::from_millis(self.interval_ms?);
         Some(base.max(*self.cost.lock().expect("lock") * 10))
+    }
+
+    /// How many checkpoints have failed since start.
+    pub fn failures(&self) -> u64 {
+        self.failures.load(Ordering::Relaxed)
     }
 
     /// Why the last checkpoint failed, if it did.

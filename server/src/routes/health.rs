@@ -47,7 +47,7 @@ pub async fn metrics(State(st): State<AppState>) -> impl IntoResponse {
         (
             "tessera_checkpoint_failures_total",
             "Checkpoints of job state that failed",
-            st.durable.failures.load(Ordering::Relaxed),
+            st.durable.failures(),
         ),
     ];
     for (name, help, v) in counters {
